@@ -1,0 +1,174 @@
+// The hardware-abstraction layer: the one interface every compute backend implements
+// (DESIGN.md §4). Nothing here names a CUDA, Vulkan or OpenCL type.
+//
+// Kernels work on device `Buffer`s laid out as described by the structs of layout.hpp; their
+// meaning is defined by DESIGN.md §3 and by the cpu backend. Every kernel call is asynchronous
+// with respect to the host until `synchronize()` or a `download()`.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "porta/keypoint.hpp"
+#include "porta/layout.hpp"
+
+namespace porta {
+
+class Backend;
+
+/// Raised for a failing device call or an unusable backend; the message names the backend, the
+/// call, the error code and its meaning.
+class BackendError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Device memory owned by one backend. Movable through unique_ptr only; never copied.
+class Buffer {
+ public:
+  virtual ~Buffer() = default;
+  Buffer(const Buffer&) = delete;
+  Buffer& operator=(const Buffer&) = delete;
+
+  std::size_t size_bytes() const { return size_bytes_; }
+
+ protected:
+  explicit Buffer(std::size_t size_bytes) : size_bytes_(size_bytes) {}
+
+ private:
+  std::size_t size_bytes_;
+};
+
+// ---- Kernel parameters (small, passed by value with each call) -----------------------------------
+
+/// A list of records in a buffer whose length lives on the device, in a uint32 at
+/// `count_offset_bytes` of `count`; at most `capacity` records start at byte 0 of `items`.
+struct DeviceList {
+  Buffer* items = nullptr;
+  Buffer* count = nullptr;
+  std::int64_t count_offset_bytes = 0;
+  int capacity = 0;
+};
+struct ConstDeviceList {
+  const Buffer* items = nullptr;
+  const Buffer* count = nullptr;
+  std::int64_t count_offset_bytes = 0;
+  int capacity = 0;
+  ConstDeviceList() = default;
+  ConstDeviceList(const DeviceList& l)  // NOLINT(google-explicit-constructor): a list is readable
+      : items(l.items), count(l.count), count_offset_bytes(l.count_offset_bytes), capacity(l.capacity) {}
+};
+
+struct FastParams {
+  int threshold = 20;  ///< epsilon
+  int edge = 19;       ///< pixels closer than this to a level's border get response 0
+};
+
+struct PfaParams {
+  std::vector<std::int32_t> scales_q16;  ///< S[n] per level
+  int level0_width = 0;
+  int level0_height = 0;
+  int window = 3;  ///< q
+};
+
+struct StereoParams {
+  std::vector<std::int32_t> scales_q16;        ///< S[n] per level
+  std::vector<std::int32_t> row_radius_q8;     ///< per right-keypoint level
+  int min_disparity_q8 = 0;
+  int max_disparity_q8 = 128 * 256;
+  int max_hamming = 75;  ///< best distance must be strictly below
+};
+
+// ---- The interface -------------------------------------------------------------------------------
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  Backend() = default;
+  Backend(const Backend&) = delete;
+  Backend& operator=(const Backend&) = delete;
+
+  /// "cpu", "cuda", "vulkan" or "opencl".
+  virtual std::string name() const = 0;
+  /// The device in words, e.g. "NVIDIA H100 80GB HBM3" or "cpu (2 threads)".
+  virtual std::string device_name() const = 0;
+
+  // Memory. Buffers are zero-filled on allocation.
+  virtual std::unique_ptr<Buffer> allocate(std::size_t bytes) = 0;
+  virtual void upload(Buffer& dst, std::size_t dst_offset, const void* src, std::size_t bytes) = 0;
+  virtual void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) = 0;
+  /// Sets `bytes` bytes at `offset` to `value`.
+  virtual void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) = 0;
+  /// Waits for all work submitted so far.
+  virtual void synchronize() = 0;
+  /// True when device buffers are host memory (no copy is needed to read them on the host).
+  virtual bool host_visible() const { return false; }
+
+  // Kernels: DESIGN.md §3, one method per contract.
+
+  /// §3.1: dst(x, y) from `src` through a map of dst.width * dst.height (x, y) int32 pairs in
+  /// Q5 fixed point (source coordinate * 32, row-major, packed). Bilinear with 5-bit weights:
+  /// (sum w * p + 512) >> 10; taps outside the source read 0.
+  virtual void rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
+                       const Plane& dst_plane) = 0;
+
+  /// §3.2: fills levels 1.. of `pyramid` (uint8) from level 0, each from the level above, with
+  /// `resize_table` (ResizeTables::packed) laid out by `level_offset`.
+  virtual void build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
+                             const std::vector<std::int32_t>& level_offset) = 0;
+
+  /// §3.3: uint16 response of every level into `responses` (laid out by `response_layout`, which
+  /// has the pyramid's level sizes), through the 65 536-byte `lut`.
+  virtual void fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                        Buffer& responses, const PyramidLayout& response_layout,
+                        const FastParams& params) = 0;
+
+  /// §3.4: per cell of every level, the maximum response (ties to the smaller row, then column)
+  /// as a Keypoint in `cells[first_cell + row * cols + col]`; response 0 when the cell has none.
+  virtual void cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
+                          const CellLayout& cell_layout, Buffer& cells) = 0;
+
+  /// §3.5: clears (sets all fields to 0) every keypoint of the dense cell array that PFA rejects.
+  virtual void pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) = 0;
+
+  /// Canonical compaction: copies the non-empty cells (response > 0), in cell order, into `out`
+  /// and writes their number into its count. `out.capacity` >= total cells.
+  virtual void compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) = 0;
+
+  /// §3.6: sets angle_bin of each listed keypoint from the intensity centroid on the unblurred
+  /// level. `umax` is build_orientation_umax(); `boundaries` build_orientation_boundaries(bins).
+  virtual void orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
+                      const std::array<int, 16>& umax, const Buffer& boundaries, int bins) = 0;
+
+  /// §3.7: 7x7 separable blur of every level of `pyramid` into `blurred` (same layout).
+  virtual void blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
+                    const std::array<std::int32_t, 7>& taps) = 0;
+
+  /// §3.8: one 32-byte Descriptor per listed keypoint into `descriptors`, from the blurred level,
+  /// with `pattern` = build_orb_pattern_table(bins).
+  virtual void orb_describe(const Buffer& blurred, const PyramidLayout& layout,
+                            ConstDeviceList keypoints, const Buffer& pattern, Buffer& descriptors) = 0;
+
+  /// §3.9: one StereoMatch per left keypoint into `matches`. Pyramids are the unblurred images.
+  virtual void stereo_match(const Buffer& left_pyramid, const Buffer& right_pyramid,
+                            const PyramidLayout& layout, ConstDeviceList left_keypoints,
+                            const Buffer& left_descriptors, ConstDeviceList right_keypoints,
+                            const Buffer& right_descriptors, const StereoParams& params,
+                            Buffer& matches) = 0;
+
+  /// §3.10: one ProjectionResult per query into `results`. `queries` holds `num_queries`
+  /// ProjectionQuery records and `query_descriptors` as many Descriptors. Keypoint positions are
+  /// compared at level 0 in 1/256 px: (x * S[n] + 128) >> 8. A keypoint is a candidate when
+  /// |u_kp - u| <= radius and |v_kp - v| <= radius and its level is in [min_level, max_level].
+  virtual void projection_match(ConstDeviceList keypoints, const Buffer& keypoint_descriptors,
+                                const Buffer& queries, const Buffer& query_descriptors,
+                                int num_queries, const std::vector<std::int32_t>& scales_q16,
+                                Buffer& results) = 0;
+};
+
+}  // namespace porta

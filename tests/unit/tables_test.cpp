@@ -1,0 +1,135 @@
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include "porta/tables.hpp"
+
+namespace porta {
+namespace {
+
+int accepted(const std::vector<std::uint8_t>& lut) { return std::accumulate(lut.begin(), lut.end(), 0); }
+
+// A circular run of exactly k ones (9 <= k <= 14) starting at one of 16 positions has a zero on
+// each side and 14 - k free bits, which cannot hold a longer run: 16 * 2^(14-k) masks. Runs of
+// 15 (16 masks) and 16 (one mask) complete the count.
+TEST(FastLut, BoundedRectification9To13Accepts992Masks) {
+  EXPECT_EQ(accepted(build_fast_lut(9, 13)), 16 * (32 + 16 + 8 + 4 + 2));
+}
+
+TEST(FastLut, ClassicFast9To16Accepts1025Masks) {
+  EXPECT_EQ(accepted(build_fast_lut(9, 16)), 16 * (32 + 16 + 8 + 4 + 2 + 1) + 16 + 1);
+}
+
+TEST(FastLut, LongestRunWrapsAroundTheCircle) {
+  EXPECT_EQ(longest_circular_run(0x0000), 0);
+  EXPECT_EQ(longest_circular_run(0xFFFF), 16);
+  EXPECT_EQ(longest_circular_run(0x8001), 2);   // bits 15 and 0 are neighbours
+  EXPECT_EQ(longest_circular_run(0xF00F), 8);
+  EXPECT_EQ(longest_circular_run(0x7FFF), 15);
+}
+
+TEST(Pyramid, LevelSizesAreRoundedAndNeverZero) {
+  const auto s = pyramid_level_sizes(1242, 375, 8, 1.2);
+  ASSERT_EQ(s.size(), 8u);
+  EXPECT_EQ(s[0], std::make_pair(1242, 375));
+  EXPECT_EQ(s[1], std::make_pair(1035, 313));  // 1242/1.2 = 1035, 375/1.2 = 312.5 -> 313
+  const auto tiny = pyramid_level_sizes(1, 1, 12, 1.2);
+  for (const auto& [w, h] : tiny) {
+    EXPECT_EQ(w, 1);
+    EXPECT_EQ(h, 1);
+  }
+}
+
+TEST(Pyramid, ResizeWeightsSumTo2048AndStayInside) {
+  const auto sizes = pyramid_level_sizes(640, 480, 4, 1.2);
+  const auto t = build_resize_tables(sizes);
+  ASSERT_EQ(t.cols.size(), 3u);
+  for (std::size_t n = 1; n < sizes.size(); ++n) {
+    for (std::size_t j = 0; j < t.cols[n - 1].src0.size(); ++j) {
+      EXPECT_GE(t.cols[n - 1].src0[j], 0);
+      EXPECT_LT(t.cols[n - 1].src0[j], sizes[n - 1].first);
+      EXPECT_GE(t.cols[n - 1].w1[j], 0);
+      EXPECT_LE(t.cols[n - 1].w1[j], 2048);
+    }
+  }
+  // 640 -> 533: destination column 0 samples source x = 0.5 * 640/533 - 0.5 = 0.1004 -> w1 = 206.
+  EXPECT_EQ(t.cols[0].src0[0], 0);
+  EXPECT_EQ(t.cols[0].w1[0], 206);
+}
+
+TEST(Culling, CellSizesShrinkWithTheLevelScale) {
+  const auto sizes = pyramid_level_sizes(1242, 375, 8, 1.2);
+  const auto c = build_cell_layout(sizes, 32, 32, 1.2);
+  EXPECT_EQ(c.levels[0].cell_w, 32);
+  EXPECT_EQ(c.levels[1].cell_w, 26);  // floor(32 / 1.2)
+  EXPECT_EQ(c.levels[0].cols, 39);    // ceil(1242 / 32)
+  EXPECT_EQ(c.levels[0].rows, 12);    // ceil(375 / 32)
+  EXPECT_EQ(c.levels[1].first_cell, 39 * 12);
+  const auto half = build_cell_layout(pyramid_level_sizes(256, 256, 3, 2.0), 32, 32, 2.0);
+  EXPECT_EQ(half.levels[2].cell_w, 8);  // exact quotients do not floor one below
+}
+
+TEST(Blur, TapsAreSymmetricAndSumTo256) {
+  const auto t = build_blur_taps();
+  EXPECT_EQ(std::accumulate(t.begin(), t.end(), 0), 256);
+  EXPECT_EQ(t[0], t[6]);
+  EXPECT_EQ(t[1], t[5]);
+  EXPECT_EQ(t[2], t[4]);
+  EXPECT_GT(t[3], t[2]);
+  EXPECT_EQ(reflect101(-1, 10), 1);
+  EXPECT_EQ(reflect101(10, 10), 8);
+  EXPECT_EQ(reflect101(-3, 2), 1);
+  EXPECT_EQ(reflect101(5, 1), 0);
+}
+
+TEST(Orb, RotatedPatternStaysWithin18Pixels) {
+  const auto table = build_orb_pattern_table(32);
+  ASSERT_EQ(table.size(), 32u * 256 * 4);
+  for (auto v : table) {
+    EXPECT_GE(v, -18);
+    EXPECT_LE(v, 18);
+  }
+  // Bin 0 is the unrotated pattern.
+  const auto& base = orb_base_pattern();
+  for (int i = 0; i < 256; ++i)
+    for (int c = 0; c < 4; ++c) EXPECT_EQ(table[static_cast<std::size_t>(i) * 4 + c], base[i][c]);
+}
+
+TEST(Orientation, UmaxIsTheDiscOfSquaredRadius240) {
+  const auto u = build_orientation_umax();
+  EXPECT_EQ(u[0], 15);
+  EXPECT_EQ(u[15], 3);  // 3^2 + 15^2 = 234 <= 240 < 4^2 + 15^2
+}
+
+TEST(Settings, RejectsOutOfRangeFieldsByName) {
+  FrontendSettings s;
+  EXPECT_NO_THROW(s.validate());
+  s.levels = 13;
+  try {
+    s.validate();
+    FAIL() << "levels = 13 accepted";
+  } catch (const SettingsError& e) {
+    EXPECT_NE(std::string(e.what()).find("levels"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("[1, 12]"), std::string::npos);
+  }
+  s = {};
+  s.max_arc = 8;  // below min_arc
+  EXPECT_THROW(s.validate(), SettingsError);
+  s = {};
+  s.scale_factor = 1.0;
+  EXPECT_THROW(s.validate(), SettingsError);
+  s = {};
+  s.pfa_window = 4;
+  EXPECT_THROW(s.validate(), SettingsError);
+  s = {};
+  s.edge = 5;
+  EXPECT_THROW(s.validate(), SettingsError);
+}
+
+TEST(Tables, RejectsImagesLargerThanTheFixedPointRange) {
+  EXPECT_THROW(FrontendTables::build(FrontendSettings{}, 20000, 10), std::invalid_argument);
+  EXPECT_THROW(FrontendTables::build(FrontendSettings{}, 0, 10), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace porta
