@@ -14,6 +14,7 @@ void register_vulkan_backend(BackendRegistry& registry);
 void register_opencl_backend(BackendRegistry& registry);
 #endif
 
+namespace {
 void register_builtin_backends(BackendRegistry& registry) {
   register_cpu_backend(registry);
 #if PORTA_HAVE_CUDA
@@ -25,6 +26,16 @@ void register_builtin_backends(BackendRegistry& registry) {
 #if PORTA_HAVE_OPENCL
   register_opencl_backend(registry);
 #endif
+}
+}  // namespace
+
+BackendRegistry& BackendRegistry::instance() {
+  static BackendRegistry registry = [] {
+    BackendRegistry r;
+    register_builtin_backends(r);
+    return r;
+  }();
+  return registry;
 }
 
 }  // namespace porta

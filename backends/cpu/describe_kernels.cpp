@@ -1,5 +1,138 @@
+// Orientation and ORB descriptor kernels of the cpu backend: the reference for DESIGN.md §3.6
+// and §3.8. One keypoint per parallel_for index; each writes only its own record or descriptor.
+#include <cstdint>
+#include <string>
+
 #include "cpu/cpu_backend.hpp"
+#include "porta/tables.hpp"
 
 namespace porta::cpu {
-// Kernels of this file: to be written (see DESIGN.md §3).
+
+namespace {
+
+/// How far the rotated ORB pattern reaches from the keypoint (tables.hpp: within [-18, 18]).
+constexpr int kOrbPatternReach = 18;
+
+[[noreturn]] void fail(const char* call, const std::string& what) {
+  throw BackendError(std::string("cpu: ") + call + ": " + what);
+}
+
+/// Checks what the kernels index with before any thread starts, so that a bad argument is an
+/// error naming the keypoint instead of a read outside the buffer.
+void check_keypoints(const char* call, const Keypoint* keypoints, int count, const PyramidLayout& layout,
+                     int reach, int bins) {
+  if (layout.element_bytes != 1) fail(call, "the pyramid must hold 8-bit pixels");
+  for (int i = 0; i < count; ++i) {
+    const Keypoint& kp = keypoints[i];
+    const std::string which = "keypoint " + std::to_string(i) + " (" + std::to_string(kp.x) + ", " +
+                              std::to_string(kp.y) + ", level " + std::to_string(kp.level) + ")";
+    if (kp.level >= layout.num_levels())
+      fail(call,
+           which + " names a level outside the " + std::to_string(layout.num_levels()) + "-level pyramid");
+    const Plane& plane = layout.levels[kp.level];
+    if (kp.x < reach || kp.y < reach || kp.x + reach >= plane.width || kp.y + reach >= plane.height)
+      fail(call, which + " is closer than " + std::to_string(reach) + " px to the border of its " +
+                     std::to_string(plane.width) + "x" + std::to_string(plane.height) + " level");
+    if (bins > 0 && kp.angle_bin >= bins)
+      fail(call, which + " has angle bin " + std::to_string(kp.angle_bin) + " outside [0, " +
+                     std::to_string(bins) + ")");
+  }
+}
+
+void check_bins(const char* call, int bins) {
+  // angle_bin is a uint8, so at most 256 bins can be told apart.
+  if (bins < 1 || bins > 256) fail(call, "bins = " + std::to_string(bins) + " is outside [1, 256]");
+}
+
+/// cross(u, m) = u.x * m.y - u.y * m.x. |u| <= 1024 and |m| < 2^20 keep it inside int32.
+std::int32_t cross(const std::int32_t* u, std::int32_t m10, std::int32_t m01) {
+  return u[0] * m01 - u[1] * m10;
+}
+
+}  // namespace
+
+// §3.6: angle_bin of each listed keypoint from the moments m10 = sum dx * I, m01 = sum dy * I over
+// the disc |dy| <= 15, |dx| <= umax[|dy|] of its unblurred level; the bin is the first b with
+// cross(u_b, m) >= 0 > cross(u_{b+1 mod B}, m), bin 0 when none (m = 0). Other fields unchanged.
+void CpuBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
+                        const std::array<int, 16>& umax, const Buffer& boundaries, int bins) {
+  check_bins("orient", bins);
+  if (boundaries.size_bytes() < static_cast<std::size_t>(bins) * 2 * sizeof(std::int32_t))
+    fail("orient", "the boundary table holds fewer than " + std::to_string(bins) + " (x, y) pairs");
+  for (int dy = 0; dy <= kOrientationRadius; ++dy)
+    if (umax[dy] < 0 || umax[dy] > kOrientationRadius)
+      fail("orient",
+           "umax[" + std::to_string(dy) + "] = " + std::to_string(umax[dy]) + " is outside [0, 15]");
+  const int count = list_count(keypoints);
+  Keypoint* records = as<Keypoint>(*keypoints.items);
+  check_keypoints("orient", records, count, layout, kOrientationRadius, 0);
+  const std::int32_t* u = as<std::int32_t>(boundaries);
+
+  pool().parallel_for(0, count, [&](std::int64_t i) {
+    Keypoint& kp = records[i];
+    const Plane& plane = layout.levels[kp.level];
+    const std::uint8_t* centre =
+        as<std::uint8_t>(pyramid, plane.offset_bytes) + static_cast<std::int64_t>(kp.y) * plane.pitch + kp.x;
+    // |m| <= 255 * sum over the half disc of |dx| < 2^20, so int32 holds both moments.
+    std::int32_t m10 = 0, m01 = 0;
+    for (int dy = -kOrientationRadius; dy <= kOrientationRadius; ++dy) {
+      const std::uint8_t* row = centre + static_cast<std::int64_t>(dy) * plane.pitch;
+      const int half_width = umax[dy < 0 ? -dy : dy];
+      std::int32_t row_sum = 0;
+      for (int dx = -half_width; dx <= half_width; ++dx) {
+        row_sum += row[dx];
+        m10 += dx * row[dx];
+      }
+      m01 += dy * row_sum;
+    }
+    int bin = 0;
+    for (int b = 0; b < bins; ++b) {
+      const int next = b + 1 == bins ? 0 : b + 1;
+      if (cross(u + 2 * b, m10, m01) >= 0 && cross(u + 2 * next, m10, m01) < 0) {
+        bin = b;
+        break;
+      }
+    }
+    kp.angle_bin = static_cast<std::uint8_t>(bin);
+  });
+}
+
+// §3.8: descriptor i of keypoint i from its blurred level: bit j = I(p + a_j) < I(p + b_j) with
+// (a_j, b_j) the j-th pair of the pattern of its angle bin, stored in byte j / 8 at bit j % 8.
+void CpuBackend::orb_describe(const Buffer& blurred, const PyramidLayout& layout, ConstDeviceList keypoints,
+                              const Buffer& pattern, Buffer& descriptors) {
+  constexpr std::size_t kBinBytes = static_cast<std::size_t>(kOrbPairs) * 4;
+  // The table's length gives the number of bins; angle_bin can name at most 256 of them.
+  const std::size_t table_bins = pattern.size_bytes() / kBinBytes;
+  const int bins = static_cast<int>(table_bins < 256 ? table_bins : 256);
+  if (bins == 0) fail("orb_describe", "the pattern table holds no bin of 256 pairs");
+  const int count = list_count(keypoints);
+  const Keypoint* records = as<Keypoint>(*keypoints.items);
+  check_keypoints("orb_describe", records, count, layout, kOrbPatternReach, bins);
+  if (descriptors.size_bytes() < static_cast<std::size_t>(count) * sizeof(Descriptor))
+    fail("orb_describe", "the descriptor buffer holds fewer than " + std::to_string(count) + " descriptors");
+  const std::int8_t* table = as<std::int8_t>(pattern);
+  Descriptor* out = as<Descriptor>(descriptors);
+
+  pool().parallel_for(0, count, [&](std::int64_t i) {
+    const Keypoint& kp = records[i];
+    const Plane& plane = layout.levels[kp.level];
+    const std::uint8_t* centre =
+        as<std::uint8_t>(blurred, plane.offset_bytes) + static_cast<std::int64_t>(kp.y) * plane.pitch + kp.x;
+    const std::int8_t* pairs = table + kp.angle_bin * kBinBytes;
+    Descriptor d;
+    for (int byte = 0; byte < 32; ++byte) {
+      std::uint32_t bits = 0;
+      for (int bit = 0; bit < 8; ++bit) {
+        const std::int8_t* p = pairs + (byte * 8 + bit) * 4;
+        const std::uint8_t a = centre[static_cast<std::int64_t>(p[1]) * plane.pitch + p[0]];
+        const std::uint8_t b = centre[static_cast<std::int64_t>(p[3]) * plane.pitch + p[2]];
+        bits |= static_cast<std::uint32_t>(a < b) << bit;
+      }
+      d.bytes[byte] = static_cast<std::uint8_t>(bits);
+    }
+    out[i] = d;
+  });
+}
+
 }  // namespace porta::cpu

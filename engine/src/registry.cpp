@@ -4,21 +4,13 @@
 
 namespace porta {
 
-void register_builtin_backends(BackendRegistry& registry);  // backends/builtin.cpp
-
 const std::vector<std::string>& known_backend_names() {
   static const std::vector<std::string> names = {"cpu", "cuda", "vulkan", "opencl"};
   return names;
 }
 
-BackendRegistry& BackendRegistry::instance() {
-  static BackendRegistry registry = [] {
-    BackendRegistry r;
-    register_builtin_backends(r);
-    return r;
-  }();
-  return registry;
-}
+// BackendRegistry::instance() is defined in backends/builtin.cpp, the one place that knows which
+// backends this build has; the engine itself depends on none of them.
 
 void BackendRegistry::add(std::string name, BackendProbe probe, BackendFactory factory) {
   entries_.push_back({std::move(name), std::move(probe), std::move(factory)});
