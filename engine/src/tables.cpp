@@ -180,14 +180,26 @@ std::vector<std::int8_t> build_orb_pattern_table(int bins) {
   const auto& base = orb_base_pattern();
   std::vector<std::int8_t> table;
   table.reserve(static_cast<std::size_t>(bins) * kOrbPairs * 4);
+  // Products that are exact halves in real numbers (x * sin 30deg) can land a hair below .5 in
+  // double; nudging away from zero rounds them as the exact value would.
+  auto round_half_away = [](double v) { return std::lround(v + (v >= 0 ? 1e-9 : -1e-9)); };
   for (int b = 0; b < bins; ++b) {
-    const double a = orientation_bin_center_rad(b, bins);
+    // With B a multiple of 4, rotate by the angle within the quadrant, then by whole quarter turns
+    // exactly, so that the table of bin b + B/4 is bin b's turned by 90 degrees to the bit.
+    const int quarters = bins % 4 == 0 ? b / (bins / 4) : 0;
+    const double a = orientation_bin_center_rad(b - quarters * (bins / 4), bins);
     const double c = std::cos(a), s = std::sin(a);
     for (const auto& pair : base) {
       for (int pt = 0; pt < 2; ++pt) {
         const double x = pair[2 * pt], y = pair[2 * pt + 1];
-        table.push_back(static_cast<std::int8_t>(std::lround(c * x - s * y)));
-        table.push_back(static_cast<std::int8_t>(std::lround(s * x + c * y)));
+        long rx = round_half_away(c * x - s * y), ry = round_half_away(s * x + c * y);
+        for (int q = 0; q < quarters; ++q) {  // (x, y) -> (-y, x): +90 degrees with y down
+          const long t = rx;
+          rx = -ry;
+          ry = t;
+        }
+        table.push_back(static_cast<std::int8_t>(rx));
+        table.push_back(static_cast<std::int8_t>(ry));
       }
     }
   }

@@ -70,7 +70,7 @@ Image textured_image(int width, int height, std::uint64_t seed, int pitch_bytes)
 Image shifted_right(const Image& src, int dx) {
   Image out(src.width(), src.height());
   for (int y = 0; y < src.height(); ++y)
-    for (int x = 0; x < src.width(); ++x) out.at(x, y) = src.at(std::max(0, x - dx), y);
+    for (int x = 0; x < src.width(); ++x) out.at(x, y) = src.at(std::clamp(x - dx, 0, src.width() - 1), y);
   return out;
 }
 

@@ -17,7 +17,7 @@ Image flat_image(int width, int height, std::uint8_t value, int pitch_bytes = 0)
 Image checkerboard(int width, int height, int square, int pitch_bytes = 0);
 /// Smooth random texture (value noise over several octaves): natural-looking, corner-rich.
 Image textured_image(int width, int height, std::uint64_t seed, int pitch_bytes = 0);
-/// `src` shifted right by `dx` px (columns entering from the left repeat column 0).
+/// `src` shifted right by `dx` px (negative: left); columns entering repeat the border column.
 Image shifted_right(const Image& src, int dx);
 /// Loads a grayscale image with OpenCV; throws std::runtime_error when it cannot be read.
 Image load_gray(const std::string& path);

@@ -95,6 +95,21 @@ TEST(Orb, RotatedPatternStaysWithin18Pixels) {
     for (int c = 0; c < 4; ++c) EXPECT_EQ(table[static_cast<std::size_t>(i) * 4 + c], base[i][c]);
 }
 
+TEST(Orb, PatternOfBinPlusQuarterIsTheQuarterTurnForEveryBinCount) {
+  for (int bins = 4; bins <= 64; bins += 4) {
+    const auto t = build_orb_pattern_table(bins);
+    for (int b = 0; b < bins; ++b) {
+      const int b90 = (b + bins / 4) % bins;
+      for (int i = 0; i < 256 * 2; ++i) {  // every point: (x, y) turned is (-y, x)
+        const auto x = t[(static_cast<std::size_t>(b) * 512 + i) * 2];
+        const auto y = t[(static_cast<std::size_t>(b) * 512 + i) * 2 + 1];
+        ASSERT_EQ(t[(static_cast<std::size_t>(b90) * 512 + i) * 2], -y) << "bins " << bins << " bin " << b;
+        ASSERT_EQ(t[(static_cast<std::size_t>(b90) * 512 + i) * 2 + 1], x) << "bins " << bins << " bin " << b;
+      }
+    }
+  }
+}
+
 TEST(Orientation, UmaxIsTheDiscOfSquaredRadius240) {
   const auto u = build_orientation_umax();
   EXPECT_EQ(u[0], 15);
