@@ -101,7 +101,8 @@ bool match_left_keypoint(const StereoInputs& in, int i, StereoMatch& match, std:
   // c: SAD search at the left level around the right keypoint's column taken to that level.
   const Plane& plane = in.layout->levels[static_cast<std::size_t>(nl)];
   const Keypoint& kr = in.right[best_j];
-  const std::int64_t ratio = stereo::level_ratio_q16(p.scales_q16[kr.level], p.scales_q16[static_cast<std::size_t>(nl)]);
+  const std::int64_t ratio =
+      stereo::level_ratio_q16(p.scales_q16[kr.level], p.scales_q16[static_cast<std::size_t>(nl)]);
   const std::int64_t xr = kr.level == nl ? kr.x : stereo::scale_column(kr.x, ratio);
   constexpr int kReach = kSadHalfWindow + kSadSearch;
   if (xr - kReach < 0 || xr + kReach >= plane.width) return false;
@@ -195,8 +196,8 @@ void CpuBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right_py
 // §3.10: per query, the keypoint of smallest Hamming distance (ties to the lower index) among
 // those within the inclusive square window and level range, and the smallest distance among the
 // other candidates; -1 / 256 / 256 when the window holds none.
-void CpuBackend::projection_match(ConstDeviceList keypoints, const Buffer& keypoint_descriptors,
-                                  const Buffer& queries, const Buffer& query_descriptors, int num_queries,
+void CpuBackend::projection_match(ConstDeviceList keypoints, const Buffer& keypoint_descriptors, const Buffer& queries,
+                                  const Buffer& query_descriptors, int num_queries,
                                   const std::vector<std::int32_t>& scales_q16, Buffer& results) {
   const Keypoint* kps = as<Keypoint>(*keypoints.items);
   const Descriptor* kp_desc = as<Descriptor>(keypoint_descriptors);
