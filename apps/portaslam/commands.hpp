@@ -1,0 +1,16 @@
+// The subcommands of the portaslam program. Each takes the arguments after its own name and
+// returns the process exit status: 0 success, 1 a problem with the input (message on stderr).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace porta::app {
+
+int backends_command(const std::vector<std::string>& args);
+int features_command(const std::vector<std::string>& args);
+
+/// Usage text of `portaslam features` (also shown by `portaslam features --help`).
+std::string features_usage();
+
+}  // namespace porta::app

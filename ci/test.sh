@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Configures (Ninja, warnings as errors), builds and runs every test: unit, quality and CLI.
+# Exits non-zero when the build or any test fails. Build folder: ./build, or $PORTA_BUILD_DIR.
+# Extra arguments go to CMake. Run ci/setup.sh first to install the dependencies.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+build_dir="${PORTA_BUILD_DIR:-build}"
+jobs="${PORTA_JOBS:-2}"
+
+cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON "$@"
+cmake --build "$build_dir" -j "$jobs"
+ctest --test-dir "$build_dir" --output-on-failure --no-tests=error -j "$jobs"
