@@ -38,10 +38,12 @@ inline int hamming_distance(const Descriptor& a, const Descriptor& b) {
   return bits;
 }
 
-/// Q16 factor taking a column of the level of scale `from_q16` to the level of scale `to_q16`:
-/// round(to * 65536 / from), the rounding done as (to * 65536 + from / 2) / from.
-inline std::int64_t level_ratio_q16(std::int32_t to_q16, std::int32_t from_q16) {
-  return (static_cast<std::int64_t>(to_q16) * 65536 + from_q16 / 2) / from_q16;
+/// Q16 factor taking a column of the level whose scale is `source_q16` to the level whose scale is
+/// `target_q16` (a column c there is at level 0 c * source, so at the target level
+/// c * source / target): round(source * 65536 / target), as (source * 65536 + target / 2) / target.
+/// Stereo calls it with (S[nR], S[nL]): right-keypoint column to the left keypoint's level.
+inline std::int64_t level_ratio_q16(std::int32_t source_q16, std::int32_t target_q16) {
+  return (static_cast<std::int64_t>(source_q16) * 65536 + target_q16 / 2) / target_q16;
 }
 
 /// A column multiplied by a Q16 ratio and rounded half up: (x * ratio + 2^15) >> 16.

@@ -1,0 +1,176 @@
+// Detection kernels of the OpenCL backend: FAST corner response, per-cell culling, pyramidal
+// feature aggregation (PFA) and the canonical compaction of the cell array (DESIGN.md §3.3-3.5);
+// device code in shaders/opencl/detect.cl. No host round-trips: PFA and compaction keep their
+// intermediate state in device scratch memory.
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "opencl/cl_types.hpp"
+#include "opencl/opencl_backend.hpp"
+
+namespace porta::opencl {
+
+namespace {
+
+void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, const char* call) {
+  bool same = a.num_levels() == b.num_levels();
+  for (int n = 0; same && n < a.num_levels(); ++n)
+    same = a.levels[static_cast<std::size_t>(n)].width == b.levels[static_cast<std::size_t>(n)].width &&
+           a.levels[static_cast<std::size_t>(n)].height == b.levels[static_cast<std::size_t>(n)].height;
+  if (!same)
+    throw BackendError(std::string("opencl: ") + call + ": the two layouts do not have the same level sizes");
+}
+
+// A kernel reading or writing outside its buffer would corrupt device memory silently; say which.
+void require_plane_inside(const Buffer& buffer, const Plane& plane, int element_bytes, const char* kernel,
+                          const char* what) {
+  if (plane.width <= 0 || plane.height <= 0) return;
+  const std::int64_t end_bytes =
+      plane.offset_bytes +
+      (static_cast<std::int64_t>(plane.height - 1) * plane.pitch + plane.width) * element_bytes;
+  if (plane.offset_bytes < 0 || plane.pitch < plane.width || plane.offset_bytes % element_bytes != 0 ||
+      end_bytes > static_cast<std::int64_t>(buffer.size_bytes()) ||
+      plane.offset_bytes > std::numeric_limits<cl_int>::max())
+    throw BackendError(std::string("opencl: ") + kernel + ": " + what + " plane (offset " +
+                       std::to_string(plane.offset_bytes) + " bytes, " + std::to_string(plane.width) + "x" +
+                       std::to_string(plane.height) + ", pitch " + std::to_string(plane.pitch) +
+                       ") does not fit its buffer of " + std::to_string(buffer.size_bytes()) + " bytes");
+}
+
+void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel, const std::string& what) {
+  if (bytes > static_cast<std::int64_t>(buffer.size_bytes()))
+    throw BackendError(std::string("opencl: ") + kernel + ": " + what + " needs " + std::to_string(bytes) +
+                       " bytes but its buffer has " + std::to_string(buffer.size_bytes()));
+}
+
+// Every level of `layout` with empty levels given no rows; the widest level and the total rows.
+ClLevels rows_of_levels(const PyramidLayout& layout, std::size_t& max_width, std::size_t& rows) {
+  ClLevels l = to_cl(layout);
+  max_width = 0;
+  rows = 0;
+  for (int n = 0; n < l.count; ++n) {
+    if (l.level[n].width <= 0 || l.level[n].height <= 0) {
+      l.level[n].width = 0;
+      l.level[n].height = 0;
+      continue;
+    }
+    max_width = std::max(max_width, static_cast<std::size_t>(l.level[n].width));
+    rows += static_cast<std::size_t>(l.level[n].height);
+  }
+  return l;
+}
+
+constexpr int kCompactBlock = 128;  // cells per work-item of the compaction
+
+}  // namespace
+
+// §3.3: one launch over every pixel of every level.
+void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                             Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
+  check_same_level_sizes(layout, response_layout, "fast_crf");
+  if (params.edge < 3)
+    throw BackendError("opencl: fast_crf: edge " + std::to_string(params.edge) +
+                       " is below 3, the radius of the FAST circle; allowed: >= 3");
+  require_bytes(lut, 65536, "fast_crf", "the FAST table");
+  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
+  for (const Plane& p : response_layout.levels) require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  std::size_t max_width = 0, rows = 0;
+  const ClLevels src = rows_of_levels(layout, max_width, rows);
+  if (rows == 0) return;
+  launch("detect", "fast_crf", Range::grid(max_width, rows), pyramid, src, lut, responses, to_cl(response_layout),
+         static_cast<cl_int>(params.threshold), static_cast<cl_int>(params.edge));
+}
+
+// §3.4: one work-item per cell of every level, one launch.
+void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
+                               const CellLayout& cell_layout, Buffer& cells) {
+  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
+    throw BackendError("opencl: cull_cells: the cell layout has " + std::to_string(cell_layout.levels.size()) +
+                       " levels but the responses " + std::to_string(response_layout.num_levels()));
+  std::int64_t end_cell = 0;
+  for (const LevelCells& c : cell_layout.levels) {
+    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0)
+      throw BackendError("opencl: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
+                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
+                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
+    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
+  }
+  for (const Plane& p : response_layout.levels)
+    require_plane_inside(responses, p, 2, "cull_cells", "response level");
+  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells", "the cell array");
+  if (end_cell == 0) return;
+  launch("detect", "cull_cells", Range::linear(static_cast<std::size_t>(end_cell)), responses,
+         to_cl(response_layout), to_cl(cell_layout), cells);
+}
+
+// §3.5: three launches over the cells (accumulate, decide, apply) with two level-0 sized scratch
+// maps that are zero between calls (zero when allocated, restored by the last step).
+void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
+  const int width0 = params.level0_width, height0 = params.level0_height;
+  if (width0 <= 0 || height0 <= 0)
+    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is empty");
+  // The cpu backend throws when it meets a keypoint of a level without a scale; the device cannot
+  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
+  if (params.scales_q16.size() < cell_layout.levels.size())
+    throw BackendError("opencl: pfa_filter: " + std::to_string(params.scales_q16.size()) +
+                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
+  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
+  if (pixels0 > std::numeric_limits<std::uint32_t>::max() / 4)
+    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is too large");
+  const int total = cell_layout.total_cells;
+  if (total <= 0) return;
+  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
+                "pfa_filter", "the cell array");
+
+  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
+  ClLevelInts scales{};
+  for (int n = 0; n < num_scales; ++n) scales.v[n] = params.scales_q16[static_cast<std::size_t>(n)];
+  const int half = params.window / 2;
+  Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
+  Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
+  Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
+  const Range range = Range::linear(static_cast<std::size_t>(total));
+  launch("detect", "pfa_accumulate", range, cells, static_cast<cl_int>(total), scales, static_cast<cl_int>(num_scales),
+         static_cast<cl_int>(width0), static_cast<cl_int>(height0), sum_map, level_map);
+  launch("detect", "pfa_decide", range, cells, static_cast<cl_int>(total), scales, static_cast<cl_int>(num_scales),
+         static_cast<cl_int>(width0), static_cast<cl_int>(height0), static_cast<cl_int>(half), sum_map, level_map,
+         rejected);
+  launch("detect", "pfa_apply", range, cells, static_cast<cl_int>(total), scales, static_cast<cl_int>(num_scales),
+         static_cast<cl_int>(width0), static_cast<cl_int>(height0), sum_map, level_map, rejected);
+}
+
+// Canonical compaction: per-block counts, a one-work-item scan that also writes the count, then a
+// per-block scatter; the order is the cell order whatever the device.
+void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
+  if (out.count == nullptr) throw BackendError("opencl: compact_keypoints: the list has no count buffer");
+  if (out.count_offset_bytes < 0)
+    throw BackendError("opencl: compact_keypoints: negative count offset " + std::to_string(out.count_offset_bytes));
+  require_bytes(*out.count, out.count_offset_bytes + 4, "compact_keypoints", "the count");
+  const int total = std::max(total_cells, 0);
+  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
+                "compact_keypoints", "the cell array");
+  // Records past the items buffer are not written (the cpu backend would write past its end).
+  std::int64_t capacity = std::max(out.capacity, 0);
+  if (out.items == nullptr)
+    capacity = 0;
+  else
+    capacity = std::min<std::int64_t>(capacity, static_cast<std::int64_t>(out.items->size_bytes() / sizeof(Keypoint)));
+
+  const int num_blocks = (total + kCompactBlock - 1) / kCompactBlock;
+  Buffer& blocks = scratch("compact_blocks", static_cast<std::size_t>(std::max(num_blocks, 1)) * 4);
+  const Range per_block = Range::linear(static_cast<std::size_t>(num_blocks));
+  launch("detect", "compact_count", per_block, cells, static_cast<cl_int>(total), static_cast<cl_int>(kCompactBlock),
+         blocks);
+  launch("detect", "compact_scan", Range::linear(1), blocks, static_cast<cl_int>(num_blocks), *out.count,
+         static_cast<cl_ulong>(out.count_offset_bytes));
+  if (capacity == 0) return;
+  launch("detect", "compact_scatter", per_block, cells, static_cast<cl_int>(total), static_cast<cl_int>(kCompactBlock),
+         blocks, *out.items, static_cast<cl_uint>(capacity));
+}
+
+}  // namespace porta::opencl

@@ -1,0 +1,133 @@
+// The OpenCL backend (OpenCL 1.2): one context and in-order queue on one device; each source of
+// shaders/opencl (with common.cl in front) is one program, built on first use from the embedded
+// text or loaded from the on-disk binary cache; the kernel contracts of DESIGN.md §3 are
+// dispatched from *_kernels.cpp.
+#pragma once
+
+#include <CL/cl.h>
+
+#include <map>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "porta/backend.hpp"
+#include "porta/registry.hpp"
+
+namespace porta::opencl {
+
+/// One device as the selection sees it.
+struct DeviceEntry {
+  cl_platform_id platform = nullptr;
+  cl_device_id device = nullptr;
+  std::string platform_name;
+  std::string device_name;
+  bool is_gpu = false;
+  std::string label() const { return platform_name + ": " + device_name; }
+};
+
+/// Every device of every platform, in platform then device order. Empty when no ICD is installed.
+std::vector<DeviceEntry> enumerate_devices();
+
+class OpenClBuffer final : public Buffer {
+ public:
+  OpenClBuffer(cl_mem mem, std::size_t bytes) : Buffer(bytes), mem_(mem) {}
+  ~OpenClBuffer() override;
+  cl_mem mem() const { return mem_; }
+
+ private:
+  cl_mem mem_;
+};
+
+inline cl_mem mem_of(const Buffer& b) { return static_cast<const OpenClBuffer&>(b).mem(); }
+
+/// Launch geometry: `global` work items per dimension (rounded up to `local` when `local` is set).
+struct Range {
+  std::size_t global[2] = {1, 1};
+  std::size_t local[2] = {0, 0};  ///< 0 = let the driver choose
+  int dims = 1;
+  static Range linear(std::size_t n, std::size_t local = 0) { return {{n, 1}, {local, 0}, 1}; }
+  static Range grid(std::size_t x, std::size_t y) { return {{x, y}, {0, 0}, 2}; }
+};
+
+class OpenClBackend final : public Backend {
+ public:
+  /// Selects the device by options.device, else $PORTA_OPENCL_DEVICE, else the first GPU, else the
+  /// first device: an index into enumerate_devices() or a case-insensitive substring of its label.
+  explicit OpenClBackend(const BackendOptions& options = {});
+  ~OpenClBackend() override;
+
+  std::string name() const override { return "opencl"; }
+  std::string device_name() const override { return device_.label(); }
+
+  std::unique_ptr<Buffer> allocate(std::size_t bytes) override;
+  void upload(Buffer& dst, std::size_t dst_offset, const void* src, std::size_t bytes) override;
+  void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) override;
+  void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
+  void synchronize() override;
+
+  void rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
+               const Plane& dst_plane) override;
+  void build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
+                     const std::vector<std::int32_t>& level_offset) override;
+  void fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
+                const PyramidLayout& response_layout, const FastParams& params) override;
+  void cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
+                  const CellLayout& cell_layout, Buffer& cells) override;
+  void pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) override;
+  void compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) override;
+  void orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
+              const std::array<int, 16>& umax, const Buffer& boundaries, int bins) override;
+  void blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
+            const std::array<std::int32_t, 7>& taps) override;
+  void orb_describe(const Buffer& blurred, const PyramidLayout& layout, ConstDeviceList keypoints,
+                    const Buffer& pattern, Buffer& descriptors) override;
+  void stereo_match(const Buffer& left_pyramid, const Buffer& right_pyramid, const PyramidLayout& layout,
+                    ConstDeviceList left_keypoints, const Buffer& left_descriptors,
+                    ConstDeviceList right_keypoints, const Buffer& right_descriptors,
+                    const StereoParams& params, Buffer& matches) override;
+  void projection_match(ConstDeviceList keypoints, const Buffer& keypoint_descriptors, const Buffer& queries,
+                        const Buffer& query_descriptors, int num_queries,
+                        const std::vector<std::int32_t>& scales_q16, Buffer& results) override;
+
+  // ---- for the kernel files ----
+  /// Kernel `kernel_name` of program `program` (a file of shaders/opencl without ".cl"), created on
+  /// first use; the program is built then too.
+  cl_kernel kernel(const char* program, const char* kernel_name);
+  /// Sets the arguments in order (a Buffer& passes its cl_mem, anything else by value) and enqueues.
+  template <typename... Args>
+  void launch(const char* program, const char* kernel_name, const Range& range, const Args&... args) {
+    cl_kernel k = kernel(program, kernel_name);
+    cl_uint index = 0;
+    (set_arg(k, kernel_name, index++, args), ...);
+    enqueue(k, kernel_name, range);
+  }
+  /// Scratch device memory that lives as long as the backend, grown on demand (never shrunk).
+  Buffer& scratch(const std::string& name, std::size_t bytes);
+  cl_command_queue queue() const { return queue_; }
+
+ private:
+  template <typename T>
+  void set_arg(cl_kernel k, const char* kernel_name, cl_uint index, const T& value) {
+    if constexpr (std::is_base_of_v<Buffer, T>) {
+      const cl_mem m = mem_of(value);
+      set_arg_raw(k, kernel_name, index, sizeof(cl_mem), &m);
+    } else {
+      static_assert(std::is_trivially_copyable_v<T>);
+      set_arg_raw(k, kernel_name, index, sizeof(T), &value);
+    }
+  }
+  void set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint index, std::size_t size, const void* value);
+  void enqueue(cl_kernel k, const char* kernel_name, const Range& range);
+  cl_program program(const char* name);
+  cl_program build_program(const std::string& name, const std::string& source);
+
+  DeviceEntry device_;
+  cl_context context_ = nullptr;
+  cl_command_queue queue_ = nullptr;
+  std::map<std::string, cl_program> programs_;
+  std::map<std::string, cl_kernel> kernels_;
+  std::map<std::string, std::unique_ptr<Buffer>> scratch_;
+};
+
+}  // namespace porta::opencl

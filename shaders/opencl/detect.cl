@@ -1,0 +1,231 @@
+// Detection kernels of the OpenCL backend: FAST corner response, per-cell culling, pyramidal
+// feature aggregation (PFA) and the canonical compaction of the cell array (DESIGN.md §3.3-3.5).
+// They reproduce the bytes of the cpu backend (backends/cpu/detect_kernels.cpp).
+
+// The radius-3 Bresenham circle (tables.hpp kFastCircle), in circular order.
+__constant int porta_fast_dx[16] = {0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -3, -3, -3, -2, -1};
+__constant int porta_fast_dy[16] = {-3, -3, -2, -1, 0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -3};
+
+// The level of global row `row` when the rows of all levels are laid end to end; *y is the row
+// within it. -1 past the last level.
+inline int porta_detect_locate_row(const porta_levels* layout, int row, int* y) {
+  for (int n = 0; n < layout->count; ++n) {
+    const int h = layout->level[n].height;
+    if (row < h) {
+      *y = row;
+      return n;
+    }
+    row -= h;
+  }
+  return -1;
+}
+
+// The level whose cells hold frame-wide cell index `cell`; -1 when none does.
+inline int porta_locate_cell(const porta_cells* cells, int cell) {
+  for (int n = 0; n < cells->count; ++n) {
+    const porta_level_cells c = cells->level[n];
+    if (cell >= c.first_cell && cell - c.first_cell < c.cols * c.rows) return n;
+  }
+  return -1;
+}
+
+// §3.3 FAST CRF with bounded rectification (DESIGN.md §3.3): one work-item per pixel of every level
+// (global: max width x sum of heights). Response = sum |I_i - c| when lut[bright] | lut[dark], else 0;
+// pixels within `edge` of the border get 0, so every pixel of the level's width x height is written.
+__kernel void fast_crf(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
+                       __global ushort* responses, const porta_levels response_layout, const int eps,
+                       const int edge) {
+  const int x = (int)get_global_id(0);
+  int y = 0;
+  const int n = porta_detect_locate_row(&layout, (int)get_global_id(1), &y);
+  if (n < 0) return;
+  const porta_plane src = layout.level[n];
+  const porta_plane dst = response_layout.level[n];
+  if (x >= dst.width) return;
+  ushort response = 0;
+  if (y >= edge && y < src.height - edge && x >= edge && x < src.width - edge) {
+    __global const uchar* centre = pyramid + src.offset_bytes + (long)y * src.pitch + x;
+    const int c = centre[0];
+    uint bright = 0, dark = 0;
+    int sum = 0;
+    for (int i = 0; i < 16; ++i) {
+      const int p = centre[porta_fast_dy[i] * src.pitch + porta_fast_dx[i]];
+      if (p > c + eps) bright |= 1u << i;
+      if (p < c - eps) dark |= 1u << i;
+      sum += abs(p - c);
+    }
+    if (lut[bright] | lut[dark]) response = (ushort)sum;
+  }
+  // Response planes hold 2-byte elements: offset_bytes is even for any layout the engine makes.
+  __global ushort* out = (__global ushort*)((__global uchar*)responses + dst.offset_bytes);
+  out[(long)y * dst.pitch + x] = response;
+}
+
+// §3.4 feature culling (DESIGN.md §3.4): one work-item per cell of every level (global: cells of
+// all levels). The maximum response of the cell, scanned row-major with a strict '>' (ties to the
+// smaller row, then column), as a Keypoint; an all-zero record when the maximum is 0.
+__kernel void cull_cells(__global const ushort* responses, const porta_levels response_layout,
+                         const porta_cells cells, __global porta_keypoint* out) {
+  const int cell = (int)get_global_id(0);
+  const int n = porta_locate_cell(&cells, cell);
+  if (n < 0) return;
+  const porta_level_cells grid = cells.level[n];
+  const porta_plane plane = response_layout.level[n];
+  const int index = cell - grid.first_cell;
+  const int cell_y = index / grid.cols;
+  const int cell_x = index - cell_y * grid.cols;
+  const int y0 = cell_y * grid.cell_h;
+  const int y1 = min(y0 + grid.cell_h, plane.height);
+  const int x0 = cell_x * grid.cell_w;
+  const int x1 = min(x0 + grid.cell_w, plane.width);
+  __global const ushort* level = (__global const ushort*)((__global const uchar*)responses + plane.offset_bytes);
+  ushort best = 0;
+  int best_x = 0, best_y = 0;
+  for (int y = y0; y < y1; ++y) {
+    __global const ushort* row = level + (long)y * plane.pitch;
+    for (int x = x0; x < x1; ++x) {
+      const ushort r = row[x];
+      if (r > best) {
+        best = r;
+        best_x = x;
+        best_y = y;
+      }
+    }
+  }
+  porta_keypoint kp;
+  kp.x = best > 0 ? (ushort)best_x : (ushort)0;
+  kp.y = best > 0 ? (ushort)best_y : (ushort)0;
+  kp.response = best;
+  kp.level = best > 0 ? (uchar)n : (uchar)0;
+  kp.angle_bin = 0;
+  out[cell] = kp;
+}
+
+// PFA helper: the level-0 location index L = Y * width0 + X of a keypoint, X = (x * S[level]) >> 16
+// and Y likewise, clamped to the level-0 image (64-bit products, as the cpu backend).
+inline uint porta_pfa_location(const porta_keypoint kp, const porta_level_ints scales, const int width0,
+                               const int height0) {
+  const ulong scale = (ulong)(long)scales.v[kp.level];
+  const ulong x = min(((ulong)kp.x * scale) >> 16, (ulong)(width0 - 1));
+  const ulong y = min(((ulong)kp.y * scale) >> 16, (ulong)(height0 - 1));
+  return (uint)(y * (ulong)width0 + x);
+}
+
+// §3.5 PFA, step A (DESIGN.md §3.5): one work-item per cell; each keypoint (response > 0, level <
+// num_scales) adds its response to sum_map[L] and its level bit to level_map[L]. Both maps are
+// level-0 sized scratch planes that are all zero before the call (step C restores that). The
+// atomics commute, so the result does not depend on their order.
+__kernel void pfa_accumulate(__global const porta_keypoint* cells, const int total_cells,
+                             const porta_level_ints scales, const int num_scales, const int width0,
+                             const int height0, __global uint* sum_map, __global uint* level_map) {
+  const int i = (int)get_global_id(0);
+  if (i >= total_cells) return;
+  const porta_keypoint kp = cells[i];
+  if (kp.response == 0 || kp.level >= num_scales) return;
+  const uint l = porta_pfa_location(kp, scales, width0, height0);
+  atomic_add(&sum_map[l], (uint)kp.response);
+  atomic_or(&level_map[l], 1u << kp.level);
+}
+
+// §3.5 PFA, step B: one work-item per cell; score(L) = sum_map[L] * popcount(level_map[L]) (uint32,
+// as the cpu backend). rejected[i] = 1 when a location within `reach` of the keypoint's L (clipped to
+// the level-0 image) scores strictly more, else 0. Cells and maps are only read.
+__kernel void pfa_decide(__global const porta_keypoint* cells, const int total_cells,
+                         const porta_level_ints scales, const int num_scales, const int width0,
+                         const int height0, const int reach, __global const uint* sum_map,
+                         __global const uint* level_map, __global uchar* rejected) {
+  const int i = (int)get_global_id(0);
+  if (i >= total_cells) return;
+  const porta_keypoint kp = cells[i];
+  uchar reject = 0;
+  if (kp.response != 0 && kp.level < num_scales) {
+    const uint l = porta_pfa_location(kp, scales, width0, height0);
+    const uint own = sum_map[l] * popcount(level_map[l]);
+    const int x = (int)(l % (uint)width0);
+    const int y = (int)(l / (uint)width0);
+    const int xa = max(0, x - reach), xb = min(width0 - 1, x + reach);
+    const int ya = max(0, y - reach), yb = min(height0 - 1, y + reach);
+    for (int wy = ya; wy <= yb && !reject; ++wy) {
+      const uint row = (uint)wy * (uint)width0;
+      for (int wx = xa; wx <= xb; ++wx) {
+        const uint k = row + (uint)wx;
+        if (sum_map[k] * popcount(level_map[k]) > own) {
+          reject = 1;
+          break;
+        }
+      }
+    }
+  }
+  rejected[i] = reject;
+}
+
+// §3.5 PFA, step C: one work-item per cell; clears the cells step B rejected and resets the map
+// entries the keypoints touched to 0 (several work-items may write the same 0: benign).
+__kernel void pfa_apply(__global porta_keypoint* cells, const int total_cells, const porta_level_ints scales,
+                        const int num_scales, const int width0, const int height0, __global uint* sum_map,
+                        __global uint* level_map, __global const uchar* rejected) {
+  const int i = (int)get_global_id(0);
+  if (i >= total_cells) return;
+  const porta_keypoint kp = cells[i];
+  if (kp.response == 0 || kp.level >= num_scales) return;
+  const uint l = porta_pfa_location(kp, scales, width0, height0);
+  sum_map[l] = 0;
+  level_map[l] = 0;
+  if (rejected[i]) {
+    porta_keypoint zero;
+    zero.x = 0;
+    zero.y = 0;
+    zero.response = 0;
+    zero.level = 0;
+    zero.angle_bin = 0;
+    cells[i] = zero;
+  }
+}
+
+// Canonical compaction, step 1 (ARCHITECTURE.md "Keypoint list"): one work-item per block of
+// `block` cells; block_count[b] = the number of non-empty cells (response > 0) of block b.
+__kernel void compact_count(__global const porta_keypoint* cells, const int total_cells, const int block,
+                            __global uint* block_count) {
+  const int b = (int)get_global_id(0);
+  const int first = b * block;
+  if (first >= total_cells) return;
+  const int last = min(first + block, total_cells);
+  uint count = 0;
+  for (int i = first; i < last; ++i) count += cells[i].response != 0 ? 1u : 0u;
+  block_count[b] = count;
+}
+
+// Compaction, step 2: a single work-item turns block_count into exclusive offsets (in place) and
+// writes the total as a little-endian uint32 at count_bytes + count_offset (any alignment).
+__kernel void compact_scan(__global uint* block_count, const int num_blocks, __global uchar* count_bytes,
+                           const ulong count_offset) {
+  if (get_global_id(0) != 0) return;
+  uint total = 0;
+  for (int b = 0; b < num_blocks; ++b) {
+    const uint c = block_count[b];
+    block_count[b] = total;
+    total += c;
+  }
+  __global uchar* out = count_bytes + count_offset;
+  out[0] = (uchar)(total & 0xFF);
+  out[1] = (uchar)((total >> 8) & 0xFF);
+  out[2] = (uchar)((total >> 16) & 0xFF);
+  out[3] = (uchar)(total >> 24);
+}
+
+// Compaction, step 3: one work-item per block writes its non-empty cells, in cell order, from its
+// block's offset on; records at or past `capacity` are not written.
+__kernel void compact_scatter(__global const porta_keypoint* cells, const int total_cells, const int block,
+                              __global const uint* block_offset, __global porta_keypoint* items,
+                              const uint capacity) {
+  const int b = (int)get_global_id(0);
+  const int first = b * block;
+  if (first >= total_cells) return;
+  const int last = min(first + block, total_cells);
+  uint at = block_offset[b];
+  for (int i = first; i < last && at < capacity; ++i) {
+    const porta_keypoint kp = cells[i];
+    if (kp.response == 0) continue;
+    items[at++] = kp;
+  }
+}

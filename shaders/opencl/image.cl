@@ -1,0 +1,112 @@
+// Image kernels of the OpenCL backend: rectification, pyramid construction and the descriptor
+// blur (DESIGN.md §3.1, §3.2, §3.7). Integer arithmetic only; each work-item writes one output
+// pixel, so the bytes are those of the cpu backend (backends/cpu/image_kernels.cpp).
+
+// Finds the level of global row `row` when the rows of all levels are laid end to end; sets
+// *y to the row within that level. Returns -1 when `row` is past the last level.
+inline int porta_image_locate_row(const porta_levels* layout, int row, int* y) {
+  for (int n = 0; n < layout->count; ++n) {
+    const int h = layout->level[n].height;
+    if (row < h) {
+      *y = row;
+      return n;
+    }
+    row -= h;
+  }
+  return -1;
+}
+
+// §3.1 rectify (DESIGN.md §3.1): one work-item per destination pixel (x, y); bilinear sample of
+// `src` at the Q5 map position (xq, yq): 5-bit weights, (sum w * p + 512) >> 10, taps outside the
+// source read 0. Global size: dst width x dst height.
+__kernel void rectify(__global const uchar* src, const porta_plane sp, __global const int* map,
+                      __global uchar* dst, const porta_plane dp) {
+  const int x = (int)get_global_id(0);
+  const int y = (int)get_global_id(1);
+  if (x >= dp.width || y >= dp.height) return;
+  const long m = ((long)y * dp.width + x) * 2;
+  const int xq = map[m];
+  const int yq = map[m + 1];
+  // Floor division by 32 without relying on >> of negative values: fx = xq & 31 (two's
+  // complement), and xq - fx is an exact multiple of 32.
+  const uint fx = (uint)(xq & 31);
+  const uint fy = (uint)(yq & 31);
+  const int x0 = (xq - (int)fx) / 32;
+  const int y0 = (yq - (int)fy) / 32;
+  __global const uchar* s = src + sp.offset_bytes;
+  uint p00 = 0, p10 = 0, p01 = 0, p11 = 0;
+  const bool in_x0 = x0 >= 0 && x0 < sp.width;
+  const bool in_x1 = x0 + 1 >= 0 && x0 + 1 < sp.width;
+  if (y0 >= 0 && y0 < sp.height) {
+    __global const uchar* row = s + (long)y0 * sp.pitch;
+    if (in_x0) p00 = row[x0];
+    if (in_x1) p10 = row[x0 + 1];
+  }
+  if (y0 + 1 >= 0 && y0 + 1 < sp.height) {
+    __global const uchar* row = s + (long)(y0 + 1) * sp.pitch;
+    if (in_x0) p01 = row[x0];
+    if (in_x1) p11 = row[x0 + 1];
+  }
+  const uint sum = (32 - fx) * (32 - fy) * p00 + fx * (32 - fy) * p10 + (32 - fx) * fy * p01 + fx * fy * p11;
+  dst[dp.offset_bytes + (long)y * dp.pitch + x] = (uchar)((sum + 512) >> 10);
+}
+
+// §3.2 pyramid (DESIGN.md §3.2): one level from the level above, one work-item per destination
+// pixel; `table` + `table_offset` holds cols.src0, cols.w1 (W), rows.src0, rows.w1 (H) of this
+// level (ResizeTables::packed); value (wy0*(wx0*p00 + wx1*p10) + wy1*(wx0*p01 + wx1*p11) + 2^21) >> 22.
+__kernel void build_pyramid_level(__global uchar* pyramid, const porta_plane above, const porta_plane level,
+                                  __global const int* table, const int table_offset) {
+  const int j = (int)get_global_id(0);
+  const int i = (int)get_global_id(1);
+  if (j >= level.width || i >= level.height) return;
+  __global const int* col_src0 = table + table_offset;
+  __global const int* col_w1 = col_src0 + level.width;
+  __global const int* row_src0 = col_w1 + level.width;
+  __global const int* row_w1 = row_src0 + level.height;
+
+  const int y0 = row_src0[i];
+  const int y1 = min(y0 + 1, above.height - 1);
+  const uint wy1 = (uint)row_w1[i];
+  const uint wy0 = 2048 - wy1;
+  const int x0 = col_src0[j];
+  const int x1 = min(x0 + 1, above.width - 1);
+  const uint wx1 = (uint)col_w1[j];
+  const uint wx0 = 2048 - wx1;
+  __global const uchar* top = pyramid + above.offset_bytes + (long)y0 * above.pitch;
+  __global const uchar* bottom = pyramid + above.offset_bytes + (long)y1 * above.pitch;
+  const uint sum = wy0 * (wx0 * top[x0] + wx1 * top[x1]) + wy1 * (wx0 * bottom[x0] + wx1 * bottom[x1]);
+  pyramid[level.offset_bytes + (long)i * level.pitch + j] = (uchar)((sum + (1u << 21)) >> 22);
+}
+
+// §3.7 blur, horizontal pass (DESIGN.md §3.7): all levels in one launch, one work-item per pixel
+// (global: max width x sum of heights); h = sum t_k * p(reflect101(x + k - 3)) unrounded, into the
+// uint16 scratch plane of the level (packed, pitch = width, at element scratch_offset.v[n]).
+__kernel void blur_horizontal(__global const uchar* pyramid, const porta_levels layout, __global ushort* scratch,
+                              const porta_level_ints scratch_offset, const porta_level_ints taps) {
+  const int x = (int)get_global_id(0);
+  int y = 0;
+  const int n = porta_image_locate_row(&layout, (int)get_global_id(1), &y);
+  if (n < 0) return;
+  const porta_plane p = layout.level[n];
+  if (x >= p.width) return;
+  __global const uchar* row = pyramid + p.offset_bytes + (long)y * p.pitch;
+  uint sum = 0;
+  for (int k = 0; k < 7; ++k) sum += (uint)taps.v[k] * row[porta_reflect101(x + k - 3, p.width)];
+  scratch[scratch_offset.v[n] + (long)y * p.width + x] = (ushort)sum;
+}
+
+// §3.7 blur, vertical pass (DESIGN.md §3.7): out = (sum t_k * h(reflect101(y + k - 3)) + 2^15) >> 16
+// into the blurred pyramid (same layout as the source); global as blur_horizontal.
+__kernel void blur_vertical(__global const ushort* scratch, const porta_levels layout, __global uchar* blurred,
+                            const porta_level_ints scratch_offset, const porta_level_ints taps) {
+  const int x = (int)get_global_id(0);
+  int y = 0;
+  const int n = porta_image_locate_row(&layout, (int)get_global_id(1), &y);
+  if (n < 0) return;
+  const porta_plane p = layout.level[n];
+  if (x >= p.width) return;
+  __global const ushort* h = scratch + scratch_offset.v[n] + x;
+  uint sum = 0;
+  for (int k = 0; k < 7; ++k) sum += (uint)taps.v[k] * h[(long)porta_reflect101(y + k - 3, p.height) * p.width];
+  blurred[p.offset_bytes + (long)y * p.pitch + x] = (uchar)((sum + (1u << 15)) >> 16);
+}
