@@ -8,6 +8,10 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 build_dir="${PORTA_BUILD_DIR:-build}"
 jobs="${PORTA_JOBS:-2}"
 
+# ci/setup.sh installs PoCL (OpenCL) and lavapipe (Vulkan) on the CPU: their equivalence runs
+# must happen, so a backend that cannot run fails instead of being skipped.
+export PORTA_EQUIVALENCE_REQUIRE="${PORTA_EQUIVALENCE_REQUIRE:-opencl}"
+
 cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON "$@"
 cmake --build "$build_dir" -j "$jobs"
 ctest --test-dir "$build_dir" --output-on-failure --no-tests=error -j "$jobs"

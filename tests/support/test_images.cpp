@@ -5,7 +5,13 @@
 #include <cstring>
 #include <stdexcept>
 
+// Image files are read with OpenCV where the build has it, else with libpng (the GPU machine of
+// ci/gpu.sh has no OpenCV), else not at all: tests needing real images then skip, saying why.
+#if PORTA_TESTS_HAVE_OPENCV
 #include <opencv2/imgcodecs.hpp>
+#elif PORTA_TESTS_HAVE_PNG
+#include <png.h>
+#endif
 
 namespace porta::test {
 
@@ -75,11 +81,36 @@ Image shifted_right(const Image& src, int dx) {
 }
 
 Image load_gray(const std::string& path) {
+#if PORTA_TESTS_HAVE_OPENCV
   cv::Mat m = cv::imread(path, cv::IMREAD_GRAYSCALE);
   if (m.empty()) throw std::runtime_error("cannot read image " + path);
   Image img(m.cols, m.rows);
   for (int y = 0; y < m.rows; ++y) std::memcpy(img.row(y), m.ptr(y), static_cast<std::size_t>(m.cols));
   return img;
+#elif PORTA_TESTS_HAVE_PNG
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&png, path.c_str()))
+    throw std::runtime_error("cannot read image " + path + ": " + png.message);
+  png.format = PNG_FORMAT_GRAY;
+  Image img(static_cast<int>(png.width), static_cast<int>(png.height));
+  if (!png_image_finish_read(&png, nullptr, img.data(), img.pitch_bytes(), nullptr)) {
+    const std::string why = png.message;
+    png_image_free(&png);
+    throw std::runtime_error("cannot decode image " + path + ": " + why);
+  }
+  return img;
+#else
+  throw std::runtime_error("cannot read image " + path + ": " + image_loading_unavailable_reason());
+#endif
+}
+
+std::string image_loading_unavailable_reason() {
+#if PORTA_TESTS_HAVE_OPENCV || PORTA_TESTS_HAVE_PNG
+  return {};
+#else
+  return "this test build has no image loader (neither OpenCV nor libpng was found at configure time)";
+#endif
 }
 
 }  // namespace porta::test

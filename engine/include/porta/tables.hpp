@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "porta/contract_math.hpp"
 #include "porta/layout.hpp"
 #include "porta/settings.hpp"
 
@@ -79,13 +80,7 @@ double orientation_bin_center_rad(int bin, int bins);
 std::array<std::int32_t, 7> build_blur_taps();
 
 /// Reflect-101 index into [0, n): -1 -> 1, n -> n-2, repeated as needed; 0 when n == 1.
-inline int reflect101(int i, int n) {
-  if (n == 1) return 0;
-  const int period = 2 * n - 2;
-  i = i < 0 ? -i : i;
-  i %= period;
-  return i < n ? i : period - i;
-}
+using contract::reflect101;
 
 // ---- ORB descriptor (§3.8) ---------------------------------------------------------------------
 

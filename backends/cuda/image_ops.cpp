@@ -1,0 +1,97 @@
+// Image contracts of the CUDA backend (DESIGN.md §3.1, §3.2, §3.7): argument checks as the cpu
+// backend's (backends/cpu/image_kernels.cpp), then the launches of image_kernels.cu.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cuda/host_checks.hpp"
+
+namespace porta::cuda {
+
+using detail::fail;
+using detail::launched;
+using detail::require_bytes;
+using detail::require_plane_inside;
+
+// §3.1: one thread per destination pixel.
+void CudaBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
+                          const Plane& dst_plane) {
+  require_plane_inside(src, src_plane, 1, "rectify", "source");
+  require_plane_inside(dst, dst_plane, 1, "rectify", "destination");
+  require_bytes(map, static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4, "rectify",
+                "the map");
+  if (dst_plane.width <= 0 || dst_plane.height <= 0) return;
+  activate();
+  // An empty source reads 0 everywhere: the kernel's bounds tests see width or height 0.
+  DevPlane sp = detail::to_dev(src_plane);
+  if (src_plane.width <= 0 || src_plane.height <= 0) sp = DevPlane{0, 0, 0, 0, 0};
+  launched(launch_rectify(dev<std::uint8_t>(src), sp, dev<std::int32_t>(map), dev<std::uint8_t>(dst),
+                          detail::to_dev(dst_plane), stream()),
+           "rectify");
+}
+
+// §3.2: one launch per level, in order (each level reads the one above; the stream is in order).
+void CudaBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
+                                const std::vector<std::int32_t>& level_offset) {
+  const int levels = layout.num_levels();
+  if (levels > 1 && static_cast<int>(level_offset.size()) < levels - 1)
+    fail("build_pyramid", std::to_string(level_offset.size()) + " level offsets given for " +
+                              std::to_string(levels) + " levels (need levels - 1)");
+  for (int n = 0; n < levels; ++n)
+    require_plane_inside(pyramid, layout.levels[static_cast<std::size_t>(n)], 1, "build_pyramid", "level");
+  for (int n = 1; n < levels; ++n) {
+    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
+    const std::int64_t offset = level_offset[static_cast<std::size_t>(n - 1)];
+    if (offset < 0)
+      fail("build_pyramid",
+           "negative resize table offset " + std::to_string(offset) + " for level " + std::to_string(n));
+    require_bytes(resize_table, (offset + 2 * static_cast<std::int64_t>(level.width) + 2 * level.height) * 4,
+                  "build_pyramid", "the resize table of level " + std::to_string(n));
+  }
+  activate();
+  for (int n = 1; n < levels; ++n) {
+    const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
+    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
+    if (level.width <= 0 || level.height <= 0) continue;
+    launched(launch_resize_level(
+                 dev<std::uint8_t>(pyramid), detail::to_dev(above), detail::to_dev(level),
+                 dev<std::int32_t>(resize_table) + level_offset[static_cast<std::size_t>(n - 1)], stream()),
+             "build_pyramid");
+  }
+}
+
+// §3.7: one launch over every level: a 32 x 8 tile per block, horizontal and vertical passes
+// through shared memory.
+void CudaBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
+                       const std::array<std::int32_t, 7>& taps) {
+  std::int32_t tap_sum = 0;
+  for (const std::int32_t t : taps) {
+    if (t < 0) fail("blur", "taps must be non-negative (see build_blur_taps())");
+    tap_sum += t;
+  }
+  if (tap_sum != 256)
+    fail("blur", "taps sum to " + std::to_string(tap_sum) + ", must sum to 256 (see build_blur_taps())");
+  for (const Plane& level : layout.levels) {
+    require_plane_inside(pyramid, level, 1, "blur", "pyramid level");
+    require_plane_inside(blurred, level, 1, "blur", "blurred level");
+  }
+  const DevTiledLevels tiles = detail::tile_levels(layout, "blur");
+  if (tiles.first_block[tiles.count] == 0) return;
+  activate();
+  // In place (the same buffer twice): tiles would read pixels other tiles have already blurred,
+  // so the source is copied first (the cpu reads a whole level before writing it).
+  const Buffer* source = &pyramid;
+  if (&pyramid == &blurred) {
+    Buffer& copy = scratch("blur.source", pyramid.size_bytes());
+    check(cudaMemcpyAsync(dev<std::uint8_t>(copy), dev<std::uint8_t>(pyramid), pyramid.size_bytes(),
+                          cudaMemcpyDeviceToDevice, stream()),
+          "cudaMemcpyAsync(" + std::to_string(pyramid.size_bytes()) + " bytes, device to device)",
+          "blur in place");
+    source = &copy;
+  }
+  launched(launch_blur(dev<std::uint8_t>(*source), dev<std::uint8_t>(blurred), tiles, taps.data(), stream()),
+           "blur");
+}
+
+}  // namespace porta::cuda
