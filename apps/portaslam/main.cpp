@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_options.hpp"
 #include "commands.hpp"
 
 namespace {
@@ -16,6 +17,8 @@ const char* const kUsage =
     "\n"
     "Commands:\n"
     "  backends   list every compute backend: built into this binary? usable on this machine?\n"
+    "  bench      time the frontend over resolutions x pyramid levels x modes per backend,\n"
+    "             with OpenCV's ORB as a peer; prints a table, --json FILE for every number\n"
     "  features   detect ORB features (and stereo matches) in an image or a rectified stereo pair,\n"
     "             print counts and per-stage times, and write an annotated PNG;\n"
     "             with no image it runs on a built-in synthetic stereo pair\n"
@@ -25,12 +28,17 @@ const char* const kUsage =
     "  portaslam backends\n"
     "  portaslam features\n"
     "  portaslam features left.png right.png --backend cpu --out pair.png\n"
+    "  portaslam bench --resolutions 640x480 --levels 8 --json bench.json\n"
     "\n"
     "Exit status: 0 success, 1 bad input or a failed run (message on stderr), 2 bad command.\n";
 
 int help(const std::vector<std::string>& args) {
   if (!args.empty() && args[0] == "features") {
     std::cout << porta::app::features_usage();
+    return 0;
+  }
+  if (!args.empty() && args[0] == "bench") {
+    std::cout << porta::app::bench_usage();
     return 0;
   }
   if (!args.empty() && args[0] == "backends") {
@@ -56,6 +64,7 @@ int main(int argc, char** argv) {
   if (command == "--help" || command == "-h" || command == "help") return help(rest);
   if (command == "backends") return porta::app::backends_command(rest);
   if (command == "features") return porta::app::features_command(rest);
+  if (command == "bench") return porta::app::bench_command(rest);
   std::cerr << "portaslam: unknown command '" << command << "'\n\n" << kUsage;
   return 2;
 }

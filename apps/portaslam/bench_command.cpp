@@ -1,0 +1,473 @@
+// `portaslam bench`: the frontend throughput matrix (resolutions x pyramid levels x modes, per
+// backend), with OpenCV's cv::ORB on the CPU timed on the same images in the same run as a peer.
+// One timed frame = the wall time of one Frontend::detect / detect_stereo call, which uploads the
+// image, runs every kernel, and downloads keypoints, descriptors and matches (a download waits
+// for the device), so it is the whole cost a SLAM system pays per frame.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "bench_inputs.hpp"
+#include "bench_options.hpp"
+#include "cli_args.hpp"
+#include "porta/frontend.hpp"
+#include "porta/registry.hpp"
+
+namespace porta::app {
+
+namespace {
+
+const char* const kPeerName = "opencv-orb";
+
+using Clock = std::chrono::steady_clock;
+
+double elapsed_us(Clock::time_point since) {
+  return std::chrono::duration<double, std::micro>(Clock::now() - since).count();
+}
+
+// ---- What one row of the matrix holds ------------------------------------------------------------
+
+struct FrameResult {
+  double us = 0.0;
+  double keypoints = 0.0;  // per image (mean of left and right for a pair)
+  int matches = 0;
+};
+
+struct Row {
+  Row(std::string backend_name, Resolution cell_size, int cell_levels, BenchMode cell_mode)
+      : backend(std::move(backend_name)), size(cell_size), levels(cell_levels), mode(cell_mode) {}
+
+  std::string backend;  // a backend's name, or kPeerName
+  Resolution size;
+  int levels = 0;
+  BenchMode mode = BenchMode::detect;
+  std::vector<double> us;  // per timed frame, sorted
+  double mean_keypoints = 0.0;
+  double mean_matches = 0.0;
+  double speedup = 0.0;  // ours: peer median / our median; 0 = no peer
+  int peer_nfeatures = 0;
+  std::string error;  // why this row has no numbers (a backend that failed the cell), else empty
+
+  // Linear interpolation between closest ranks (numpy's default).
+  double percentile(double p) const {
+    const double rank = p / 100.0 * static_cast<double>(us.size() - 1);
+    const auto lo = static_cast<std::size_t>(rank);
+    const std::size_t hi = std::min(lo + 1, us.size() - 1);
+    return us[lo] + (rank - static_cast<double>(lo)) * (us[hi] - us[lo]);
+  }
+  double median() const { return percentile(50); }
+  double frames_per_s() const { return 1e6 / median(); }
+};
+
+template <typename TimedCall>  // FrameResult(std::size_t frame)
+void measure(Row& row, int warmup, int frames, TimedCall&& call) {
+  for (int i = 0; i < warmup; ++i) call(static_cast<std::size_t>(i));
+  double keypoints = 0.0, matches = 0.0;
+  for (int i = 0; i < frames; ++i) {
+    const FrameResult r = call(static_cast<std::size_t>(warmup + i));
+    row.us.push_back(r.us);
+    keypoints += r.keypoints;
+    matches += r.matches;
+  }
+  std::sort(row.us.begin(), row.us.end());
+  row.mean_keypoints = keypoints / frames;
+  row.mean_matches = matches / frames;
+}
+
+ImageView view_of(const cv::Mat& gray) {
+  return {gray.data, gray.cols, gray.rows, static_cast<int>(gray.step)};
+}
+
+void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOptions& options) {
+  FrontendSettings settings;
+  settings.levels = row.levels;
+  FrontendOptions frontend_options;
+  frontend_options.describe = row.mode != BenchMode::detect;
+  Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
+  measure(row, options.warmup, options.frames, [&](std::size_t frame) {
+    const cv::Mat& left = in.left[frame % in.left.size()];
+    FrameResult r;
+    if (row.mode == BenchMode::stereo) {
+      const cv::Mat& right = in.right[frame % in.right.size()];
+      const Clock::time_point t0 = Clock::now();
+      const StereoFeatures f = frontend.detect_stereo(view_of(left), view_of(right));
+      r.us = elapsed_us(t0);
+      r.keypoints = static_cast<double>(f.left.keypoints.size() + f.right.keypoints.size()) / 2.0;
+      r.matches = f.num_matches();
+    } else {
+      const Clock::time_point t0 = Clock::now();
+      const Features f = frontend.detect(view_of(left));
+      r.us = elapsed_us(t0);
+      r.keypoints = static_cast<double>(f.keypoints.size());
+    }
+    return r;
+  });
+}
+
+// cv::ORB with nfeatures and `levels`, our default scale (1.2) and FAST threshold (20), OpenCV's
+// other defaults (edge threshold 31, Harris score, patch 31). stereo: both images + brute-force Hamming
+// matching with cross-check, which has no row or disparity constraint: not our stereo matching, only the
+// closest cheap peer.
+void time_peer(Row& row, const BenchFrames& in, const BenchOptions& options) {
+  const FrontendSettings ours;
+  const cv::Ptr<cv::ORB> orb =
+      cv::ORB::create(row.peer_nfeatures, static_cast<float>(ours.scale_factor), row.levels, 31, 0, 2,
+                      cv::ORB::HARRIS_SCORE, 31, ours.fast_threshold);
+  cv::BFMatcher matcher(cv::NORM_HAMMING, true);
+  measure(row, options.warmup, options.frames, [&](std::size_t frame) {
+    const cv::Mat& left = in.left[frame % in.left.size()];
+    std::vector<cv::KeyPoint> kl, kr;
+    cv::Mat dl, dr;
+    std::vector<cv::DMatch> matches;
+    FrameResult r;
+    const Clock::time_point t0 = Clock::now();
+    if (row.mode == BenchMode::detect) {
+      orb->detect(left, kl);
+    } else {
+      orb->detectAndCompute(left, cv::noArray(), kl, dl);
+      if (row.mode == BenchMode::stereo) {
+        orb->detectAndCompute(in.right[frame % in.right.size()], cv::noArray(), kr, dr);
+        if (!dl.empty() && !dr.empty()) matcher.match(dl, dr, matches);
+      }
+    }
+    r.us = elapsed_us(t0);
+    r.keypoints = row.mode == BenchMode::stereo ? static_cast<double>(kl.size() + kr.size()) / 2.0
+                                                : static_cast<double>(kl.size());
+    r.matches = static_cast<int>(matches.size());
+    return r;
+  });
+}
+
+// ---- The machine, the date, the commit -----------------------------------------------------------
+
+std::string first_line_of(const std::string& command) {
+  std::string out;
+  if (FILE* pipe = popen(command.c_str(), "r")) {
+    char buffer[256];
+    if (std::fgets(buffer, sizeof buffer, pipe)) out = buffer;
+    pclose(pipe);
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  return out;
+}
+
+// The value of the first "key : value" line of a /proc file whose key starts with `key`.
+std::string proc_value(const char* file, const std::string& key) {
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) {
+    const auto colon = line.find(':');
+    if (line.rfind(key, 0) == 0 && colon != std::string::npos) {
+      const auto start = line.find_first_not_of(" \t", colon + 1);
+      return start == std::string::npos ? "" : line.substr(start);
+    }
+  }
+  return "";
+}
+
+struct Machine {
+  std::string cpu_model;
+  unsigned hardware_threads = 0;
+  double memory_gib = 0.0;
+  std::string date;    // UTC, ISO 8601
+  std::string commit;  // short hash, or "unknown"
+  bool worktree_modified = false;
+  int opencv_threads = 0;
+};
+
+Machine describe_machine() {
+  Machine m;
+  m.cpu_model = proc_value("/proc/cpuinfo", "model name");
+  if (m.cpu_model.empty()) m.cpu_model = "unknown";
+  m.hardware_threads = std::thread::hardware_concurrency();
+  m.memory_gib = std::atof(proc_value("/proc/meminfo", "MemTotal").c_str()) / (1024.0 * 1024.0);  // kB
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  m.date = date;
+  // The checkout we run in, else the one this binary was built from.
+  for (const std::string& git : {std::string("git"), "git -C '" + std::string(PORTA_SOURCE_DIR) + "'"}) {
+    m.commit = first_line_of(git + " rev-parse --short HEAD 2>/dev/null");
+    if (m.commit.empty()) continue;
+    m.worktree_modified =
+        !first_line_of(git + " status --porcelain --untracked-files=no 2>/dev/null").empty();
+    break;
+  }
+  if (m.commit.empty()) m.commit = "unknown";
+  m.opencv_threads = cv::getNumThreads();
+  return m;
+}
+
+// ---- Output --------------------------------------------------------------------------------------
+
+struct Report {
+  BenchOptions options;
+  Machine machine;
+  std::vector<std::pair<std::string, std::string>> devices;  // backend, device_name()
+  std::vector<std::pair<std::string, std::string>> inputs;   // resolution, source in words
+  std::string data_folder;
+  std::vector<Row> rows;
+  double seconds = 0.0;
+};
+
+const char* const kTimingNote =
+    "wall time of one Frontend::detect / detect_stereo call: upload, every kernel, synchronisation, "
+    "download of keypoints, descriptors and matches";
+const char* const kPeerNote =
+    "cv::ORB on the CPU, nfeatures = our mean keypoints per image in the same cell, scale 1.2, FAST "
+    "threshold 20, Harris score, patch 31; stereo = detectAndCompute on both images + "
+    "cv::BFMatcher(NORM_HAMMING, crossCheck): no row or disparity constraint, not the same stereo "
+    "matching as ours, the closest cheap peer";
+
+void print_header(const Report& r) {
+  const Machine& m = r.machine;
+  std::printf("portaslam bench: per cell %d timed frame%s after %d warm-up frame%s\n", r.options.frames,
+              r.options.frames == 1 ? "" : "s", r.options.warmup, r.options.warmup == 1 ? "" : "s");
+  std::printf("machine   %s, %u hardware threads, %.1f GiB; %s, commit %s%s\n", m.cpu_model.c_str(),
+              m.hardware_threads, m.memory_gib, m.date.c_str(), m.commit.c_str(),
+              m.worktree_modified ? " (with local changes)" : "");
+  for (const auto& [name, device] : r.devices)
+    std::printf("backend   %s: %s\n", name.c_str(), device.c_str());
+  if (r.options.peer)
+    std::printf("peer      %s: OpenCV %s on %d threads; %s\n", kPeerName, CV_VERSION, m.opencv_threads,
+                kPeerNote);
+  std::printf("timing    %s\n", kTimingNote);
+  std::printf("data      %s\n", r.data_folder.c_str());
+  for (const auto& [size, source] : r.inputs)
+    std::printf("input     %-9s %s\n", size.c_str(), source.c_str());
+}
+
+void print_table(const Report& r) {
+  std::printf("\n%-10s %-10s %6s  %-7s %10s %10s %10s %9s %9s %8s %8s\n", "backend", "resolution", "levels",
+              "mode", "median_us", "p10_us", "p90_us", "frames/s", "keypoints", "matches", "speedup");
+  for (const Row& row : r.rows) {
+    if (!row.error.empty()) {
+      std::printf("%-10s %-10s %6d  %-7s %s\n", row.backend.c_str(), row.size.text().c_str(), row.levels,
+                  mode_name(row.mode), row.error.c_str());
+      continue;
+    }
+    char matches[16] = "-", speedup[16] = "-";
+    if (row.mode == BenchMode::stereo) std::snprintf(matches, sizeof matches, "%.0f", row.mean_matches);
+    if (row.speedup > 0) std::snprintf(speedup, sizeof speedup, "%.2fx", row.speedup);
+    std::printf("%-10s %-10s %6d  %-7s %10.0f %10.0f %10.0f %9.1f %9.0f %8s %8s\n", row.backend.c_str(),
+                row.size.text().c_str(), row.levels, mode_name(row.mode), row.median(), row.percentile(10),
+                row.percentile(90), row.frames_per_s(), row.mean_keypoints, matches, speedup);
+  }
+  std::printf(
+      "\nframes/s = 1e6 / median (stereo: pairs/s); keypoints = mean per image; matches = mean stereo "
+      "matches per pair\n");
+  if (r.options.peer)
+    std::printf("speedup = %s median / our median, measured in this run (> 1: ours is faster)\n", kPeerName);
+  std::printf("%.1f s in all\n", r.seconds);
+}
+
+// A JSON string: std::quoted escapes quotes and backslashes with a backslash, as JSON does; control
+// characters (none are expected in a CPU model, a path or our notes) become spaces.
+std::string json_string(std::string s) {
+  std::replace_if(
+      s.begin(), s.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }, ' ');
+  std::ostringstream out;
+  out << std::quoted(s);
+  return out.str();
+}
+
+void write_json(std::ostream& out, const Report& r) {
+  const Machine& m = r.machine;
+  const BenchOptions& o = r.options;
+  const FrontendSettings s;
+  out << "{\n  \"tool\": \"portaslam bench\",\n  \"date\": " << json_string(m.date)
+      << ",\n  \"commit\": " << json_string(m.commit)
+      << ",\n  \"worktree_modified\": " << (m.worktree_modified ? "true" : "false")
+      << ",\n  \"seconds\": " << r.seconds << ",\n";
+  out << "  \"machine\": {\"cpu_model\": " << json_string(m.cpu_model)
+      << ", \"hardware_threads\": " << m.hardware_threads << ", \"memory_gib\": " << m.memory_gib << "},\n";
+  out << "  \"backends\": [";
+  for (std::size_t i = 0; i < r.devices.size(); ++i)
+    out << (i ? ", " : "") << "{\"name\": " << json_string(r.devices[i].first)
+        << ", \"device\": " << json_string(r.devices[i].second) << "}";
+  out << "],\n  \"peer\": ";
+  if (o.peer)
+    out << "{\"name\": \"" << kPeerName << "\", \"opencv_version\": \"" << CV_VERSION
+        << "\", \"opencv_threads\": " << m.opencv_threads << ", \"what\": " << json_string(kPeerNote) << "}";
+  else
+    out << "null";
+  out << ",\n  \"settings\": {\"frames\": " << o.frames << ", \"warmup\": " << o.warmup
+      << ", \"threads\": " << o.threads << ", \"device\": " << json_string(o.device)
+      << ", \"timing\": " << json_string(kTimingNote)
+      << ",\n    \"frontend\": {\"scale_factor\": " << s.scale_factor
+      << ", \"fast_threshold\": " << s.fast_threshold << ", \"min_arc\": " << s.min_arc
+      << ", \"max_arc\": " << s.max_arc << ", \"edge\": " << s.edge << ", \"cell\": " << s.cell_width
+      << ", \"pfa\": " << (s.pfa ? "true" : "false") << ", \"pfa_window\": " << s.pfa_window
+      << ", \"orientation_bins\": " << s.orientation_bins
+      << ", \"stereo_max_disparity\": " << s.stereo_max_disparity
+      << ", \"stereo_max_hamming\": " << s.stereo_max_hamming
+      << "},\n    \"data\": " << json_string(r.data_folder) << ",\n    \"inputs\": {";
+  for (std::size_t i = 0; i < r.inputs.size(); ++i)
+    out << (i ? ", " : "") << "\n      " << json_string(r.inputs[i].first) << ": "
+        << json_string(r.inputs[i].second);
+  out << "}},\n  \"results\": [";
+  for (std::size_t i = 0; i < r.rows.size(); ++i) {
+    const Row& row = r.rows[i];
+    out << (i ? "," : "") << "\n    {\"backend\": " << json_string(row.backend) << ", \"resolution\": \""
+        << row.size.text() << "\", \"width\": " << row.size.width << ", \"height\": " << row.size.height
+        << ", \"levels\": " << row.levels << ", \"mode\": \"" << mode_name(row.mode) << "\"";
+    if (!row.error.empty()) {
+      out << ", \"error\": " << json_string(row.error) << "}";
+      continue;
+    }
+    out << ", \"frames\": " << row.us.size() << ", \"median_us\": " << row.median()
+        << ", \"p10_us\": " << row.percentile(10) << ", \"p90_us\": " << row.percentile(90)
+        << ", \"min_us\": " << row.us.front() << ", \"max_us\": " << row.us.back()
+        << ", \"frames_per_s\": " << row.frames_per_s() << ", \"mean_keypoints\": " << row.mean_keypoints;
+    if (row.mode == BenchMode::stereo) out << ", \"mean_matches\": " << row.mean_matches;
+    if (row.backend == kPeerName) out << ", \"nfeatures\": " << row.peer_nfeatures;
+    if (row.speedup > 0) out << ", \"speedup_vs_peer\": " << row.speedup;
+    out << "}";
+  }
+  out << "\n  ]\n}\n";
+}
+
+// ---- The run -------------------------------------------------------------------------------------
+
+// The asked backends, or cpu plus every other one available here; created before any timing so a
+// missing backend fails at once.
+std::vector<std::unique_ptr<Backend>> create_backends(const BenchOptions& options) {
+  std::vector<std::string> names = options.backends;
+  if (names.empty()) {
+    names.push_back("cpu");
+    for (const BackendInfo& info : BackendRegistry::instance().list())
+      if (info.available && info.name != "cpu") names.push_back(info.name);
+  }
+  BackendOptions backend_options;
+  backend_options.threads = options.threads;
+  backend_options.device = options.device;
+  std::vector<std::unique_ptr<Backend>> backends;
+  for (const auto& name : names)
+    backends.push_back(BackendRegistry::instance().create(name, backend_options));
+  return backends;
+}
+
+void check_json_path(const std::string& path) {
+  if (path.empty()) return;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
+    throw CliError("cannot write '" + path + "': folder '" + folder.string() + "' does not exist");
+}
+
+void progress(const Row& row, std::size_t done, std::size_t total, double seconds) {
+  std::fprintf(stderr, "[%zu/%zu] %-10s %-9s levels %d %-7s ", done, total, row.backend.c_str(),
+               row.size.text().c_str(), row.levels, mode_name(row.mode));
+  if (row.error.empty())
+    std::fprintf(stderr, "median %9.0f us  %8.1f frames/s  (%.1f s)\n", row.median(), row.frames_per_s(),
+                 seconds);
+  else
+    std::fprintf(stderr, "%s\n", row.error.c_str());
+}
+
+// One cell: our rows, then the peer's. A backend that fails the cell gets a row saying why and the
+// run goes on, so that one unfinished kernel does not cost a run of many minutes.
+void run_cell(Report& report, const std::vector<std::unique_ptr<Backend>>& backends,
+              const BenchFrames& frames, const Row& cell, std::size_t total) {
+  const std::size_t first_row = report.rows.size();
+  for (const auto& backend : backends) {
+    Row row(backend->name(), cell.size, cell.levels, cell.mode);
+    const Clock::time_point t0 = Clock::now();
+    try {
+      time_ours(row, *backend, frames, report.options);
+    } catch (const std::exception& e) {
+      row.error = std::string("failed: ") + e.what();
+    }
+    report.rows.push_back(std::move(row));
+    progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
+  }
+  if (!report.options.peer) return;
+  Row peer(kPeerName, cell.size, cell.levels, cell.mode);
+  const auto ours = report.rows.begin() + static_cast<std::ptrdiff_t>(first_row);
+  const auto reference = std::find_if(ours, report.rows.end(), [](const Row& r) { return r.error.empty(); });
+  const Clock::time_point t0 = Clock::now();
+  if (reference == report.rows.end()) {
+    peer.error = "skipped: no backend finished this cell, so there is no keypoint count to ask for";
+  } else {
+    peer.peer_nfeatures = std::max(1, static_cast<int>(std::lround(reference->mean_keypoints)));
+    time_peer(peer, frames, report.options);
+    for (auto row = ours; row != report.rows.end(); ++row)
+      if (row->error.empty()) row->speedup = peer.median() / row->median();
+  }
+  report.rows.push_back(std::move(peer));
+  progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
+}
+
+int run(const BenchOptions& options) {
+  check_json_path(options.json);
+  const std::vector<std::unique_ptr<Backend>> backends = create_backends(options);
+  const DataFolder data = locate_data_folder(options.data);
+
+  Report report;
+  report.options = options;
+  report.machine = describe_machine();
+  for (const auto& b : backends) report.devices.emplace_back(b->name(), b->device_name());
+  report.data_folder = data.path.empty() ? "none found" : data.path.string() + " (" + data.origin + ")";
+
+  const Clock::time_point start = Clock::now();
+  const std::size_t total = options.resolutions.size() * options.levels.size() * options.modes.size() *
+                            (backends.size() + (options.peer ? 1 : 0));
+  for (const Resolution& size : options.resolutions) {
+    const BenchFrames frames = load_bench_frames(data, size);
+    report.inputs.emplace_back(size.text(), frames.source);
+    for (int levels : options.levels)
+      for (BenchMode mode : options.modes)
+        run_cell(report, backends, frames, Row("", size, levels, mode), total);
+  }
+  report.seconds = elapsed_us(start) / 1e6;
+
+  print_header(report);
+  print_table(report);
+  if (!options.json.empty()) {
+    std::ofstream json(options.json);
+    if (json) write_json(json, report);
+    if (!json) throw CliError("cannot write '" + options.json + "': check that its folder is writable");
+    std::printf("wrote %s\n", options.json.c_str());
+  }
+  const auto failed = std::count_if(report.rows.begin(), report.rows.end(),
+                                    [](const Row& row) { return row.error.rfind("failed", 0) == 0; });
+  if (failed == 0) return 0;
+  std::fprintf(stderr, "portaslam bench: %ld of the %zu rows failed; the table says why\n",
+               static_cast<long>(failed), report.rows.size());
+  return 1;
+}
+
+}  // namespace
+
+int bench_command(const std::vector<std::string>& args) {
+  const char* const who = "portaslam bench: ";
+  try {
+    const BenchOptions options = parse_bench_options(args);
+    if (options.help) {
+      std::cout << bench_usage();
+      return 0;
+    }
+    return run(options);
+  } catch (const BackendError& e) {
+    std::cerr << who << e.what() << "\n(`portaslam backends` lists what this binary has and can use)\n";
+  } catch (const std::exception& e) {  // CliError: the message says it all; anything else failed
+    std::cerr << who << (dynamic_cast<const CliError*>(&e) ? "" : "failed: ") << e.what() << '\n';
+  }
+  return 1;
+}
+
+}  // namespace porta::app

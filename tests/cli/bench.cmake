@@ -1,0 +1,84 @@
+# CLI tests of `portaslam bench` (label: cli): a tiny run of the throughput matrix prints the table
+# with a cpu row and an OpenCV peer row, --json writes the numbers, a folder without data falls
+# back to the synthetic image and says so, and every bad value fails with a clear message and exit
+# status 1. Each run is a few frames of one cell, well under 5 s. The default backends are cpu and
+# every other one available here, so other backends' rows may come between cpu's and the peer's.
+#
+# porta_cli_test() and porta_cli_dir come from features.cmake, which tests/CMakeLists.txt includes
+# after this file (alphabetical order), so the tests are declared at the end of the directory.
+
+function(porta_bench_cli_tests)
+  set(tiny --frames 3 --warmup 1 --resolutions 320x240 --levels 1 --modes detect)
+  file(MAKE_DIRECTORY ${porta_cli_dir}/bench_no_data)
+
+  # ---- Runs that succeed ---------------------------------------------------------------------------
+  porta_cli_test(help_bench EXIT 0 STDOUT "Usage: portaslam bench.*--resolutions LIST.*--no-peer" ARGS help bench)
+  porta_cli_test(bench_help EXIT 0 STDOUT "Usage: portaslam bench.*--frames N" ARGS bench --help)
+  porta_cli_test(bench_tiny EXIT 0
+                 STDOUT "backend   cpu: cpu \\(.*peer      opencv-orb: OpenCV .*input     320x240 +(KITTI|EuRoC|SYNTHETIC).*\nbackend +resolution +levels +mode +median_us +p10_us +p90_us +frames/s +keypoints +matches +speedup\ncpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +[0-9.]+x\n(.*\n)?opencv-orb +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-\n"
+                 STDERR "\\[1/[0-9]+\\] cpu +320x240 +levels 1 detect +median.*\\[[0-9]+/[0-9]+\\] opencv-orb"
+                 ARGS bench ${tiny})
+  porta_cli_test(bench_json EXIT 0 FILE ${porta_cli_dir}/bench.json STDOUT "wrote bench.json"
+                 ARGS bench ${tiny} --backend cpu --json bench.json)
+  set_tests_properties(cli.bench_json PROPERTIES FIXTURES_SETUP porta_bench_json)
+  # The file itself (read back with `cmake -E cat`): the per-cell numbers and the context.
+  add_test(NAME cli.bench_json_content
+           COMMAND ${CMAKE_COMMAND} -DEXPECT_EXIT=0
+                   "-DEXPECT_STDOUT=\"commit\": \"[^\"]+\".*\"cpu_model\".*\"results\": \\[.*\"backend\": \"cpu\", \"resolution\": \"320x240\".*\"median_us\": [0-9.e+]+, \"p10_us\".*\"speedup_vs_peer\": [0-9.e+-]+.*\"backend\": \"opencv-orb\""
+                   -P ${porta_cli_checker} -- ${CMAKE_COMMAND} -E cat bench.json
+           WORKING_DIRECTORY ${porta_cli_dir})
+  set_tests_properties(cli.bench_json_content PROPERTIES LABELS cli FIXTURES_REQUIRED porta_bench_json)
+  porta_cli_test(bench_synthetic_without_data EXIT 0
+                 STDOUT "input     640x480 +SYNTHETIC input \\(no KITTI or EuRoC frames in .*bench_no_data\\).*\ncpu +640x480 +1 +stereo +[0-9]+"
+                 ARGS bench --frames 2 --warmup 0 --resolutions 640x480 --levels 1 --modes stereo --no-peer
+                      --backend cpu --data bench_no_data)
+
+  # ---- Bad input: exit 1 and a message naming the option and what it accepts ----------------------
+  porta_cli_test(bench_unknown_backend EXIT 1
+                 STDERR "portaslam bench: unknown backend 'nosuch': choose one of cpu, cuda, vulkan, opencl.*portaslam backends"
+                 ARGS bench ${tiny} --backend cpu,nosuch)
+  foreach(backend cuda vulkan opencl)  # one that this build lacks, when there is one
+    string(TOUPPER ${backend} upper)
+    if(NOT PORTA_WITH_${upper})
+      porta_cli_test(bench_backend_not_built EXIT 1
+                     STDERR "portaslam bench: backend '${backend}' is not built into this binary \\(built: cpu"
+                     ARGS bench ${tiny} --backend ${backend})
+      break()
+    endif()
+  endforeach()
+  porta_cli_test(bench_frames_zero EXIT 1
+                 STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
+  porta_cli_test(bench_frames_negative EXIT 1
+                 STDERR "option --frames expects a count in \\[1, 1000000\\], got -5" ARGS bench --frames -5)
+  porta_cli_test(bench_frames_not_a_number EXIT 1 STDERR "option --frames expects an integer, got 'many'"
+                 ARGS bench --frames many)
+  porta_cli_test(bench_frames_missing_value EXIT 1 STDERR "option --frames needs a value" ARGS bench --frames)
+  porta_cli_test(bench_warmup_negative EXIT 1
+                 STDERR "option --warmup expects a count in \\[0, 1000000\\], got -1" ARGS bench --warmup=-1)
+  porta_cli_test(bench_threads_negative EXIT 1 STDERR "option --threads expects a count >= 0" ARGS bench --threads -2)
+  porta_cli_test(bench_resolution_not_wxh EXIT 1
+                 STDERR "option --resolutions expects sizes WxH separated by commas \\(e.g. 640x480,1242x375\\), got '640by480'"
+                 ARGS bench --resolutions 320x240,640by480)
+  porta_cli_test(bench_resolution_too_small EXIT 1
+                 STDERR "option --resolutions: size 16x16 is out of range: each side must be in \\[40, 16384\\]"
+                 ARGS bench --resolutions 16x16)
+  porta_cli_test(bench_unknown_mode EXIT 1
+                 STDERR "unknown mode 'track' in --modes: choose from detect, extract, stereo"
+                 ARGS bench --modes detect,track)
+  porta_cli_test(bench_levels_out_of_range EXIT 1
+                 STDERR "invalid setting levels = 13: allowed \\[1, 12\\] \\(set by --levels\\)" ARGS bench --levels 1,13)
+  porta_cli_test(bench_empty_list EXIT 1 STDERR "option --modes needs at least one value, got ','"
+                 ARGS bench --modes ,)
+  porta_cli_test(bench_unknown_option EXIT 1
+                 STDERR "unknown option '--frobnicate' \\(see `portaslam bench --help`\\)" ARGS bench --frobnicate)
+  porta_cli_test(bench_unexpected_argument EXIT 1 STDERR "unexpected argument 'image.png': bench takes options only"
+                 ARGS bench image.png)
+  porta_cli_test(bench_no_peer_value EXIT 1 STDERR "option --no-peer takes no value" ARGS bench --no-peer=1)
+  porta_cli_test(bench_data_folder_missing EXIT 1
+                 STDERR "data folder 'no/such/folder' \\(from --data\\) is not a folder" ARGS bench ${tiny} --data no/such/folder)
+  porta_cli_test(bench_json_folder_missing EXIT 1
+                 STDERR "cannot write 'no/such/bench.json': folder 'no/such' does not exist"
+                 ARGS bench ${tiny} --json no/such/bench.json)
+endfunction()
+
+cmake_language(DEFER CALL porta_bench_cli_tests)
