@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Runs ci/gpu.sh on a GPU machine that has CUDA and the NVIDIA driver but no package manager or
+# network. It unpacks the packages that ci/fetch-gpu-deps.sh put in DEPS_DIR: the Vulkan loader
+# into / (the driver's ICD needs it on the default library path), the OpenCL ICD loader there too
+# when none is installed, the Vulkan headers and glslang into a private prefix; points CMake and
+# the loaders at them; and uses DEPS_DIR/data as the real test images. Needs root.
+#
+#   usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR]
+set -uo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
+deps="$(cd "${1:?usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR]}" && pwd)"
+out="${2:-gpu-results}"
+prefix=/tmp/porta-deps
+mkdir -p "$prefix"
+
+have_opencl_loader() { ldconfig -p 2>/dev/null | grep -q 'libOpenCL.so'; }
+opencl_loader_missing=0
+have_opencl_loader || opencl_loader_missing=1
+for f in "$deps"/debs/*.deb; do
+  case "$(basename "$f")" in
+    libvulkan1_*) dpkg -x "$f" / ;;  # the loader, where the NVIDIA ICD's dlopen finds it
+    ocl-icd-*) [ "$opencl_loader_missing" = 1 ] && dpkg -x "$f" / ;;  # only where none is installed
+    *) dpkg -x "$f" "$prefix" ;;
+  esac
+done
+ldconfig 2>/dev/null || true
+
+# NVIDIA's Vulkan ICD manifest, when the driver mounts it outside the loader's search path.
+for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
+           /etc/vulkan/icd.d/nvidia_icd.json; do
+  if [ -f "$icd" ]; then export VK_DRIVER_FILES="$icd"; break; fi
+done
+
+cmake_args=(-DVulkan_INCLUDE_DIR="$prefix/usr/include"
+            -DVulkan_GLSLANG_VALIDATOR_EXECUTABLE="$prefix/usr/bin/glslangValidator")
+if [ -e /usr/lib/x86_64-linux-gnu/libvulkan.so.1 ]; then
+  cmake_args+=(-DVulkan_LIBRARY=/usr/lib/x86_64-linux-gnu/libvulkan.so.1)
+fi
+export PORTA_GPU_CMAKE_ARGS="${cmake_args[*]} ${PORTA_GPU_CMAKE_ARGS:-}"
+[ -d "$deps/data" ] && export PORTA_DATA_DIR="$deps/data"
+exec bash ci/gpu.sh "$out"
