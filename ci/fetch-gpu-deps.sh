@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Prepares a folder to carry to a GPU machine that cannot install packages itself (no network, no
 # apt): the Debian 12 packages ci/gpu.sh needs beyond CUDA (the Vulkan loader and headers,
-# glslang, the OpenCL ICD loader) and the few real images of ../shared/data the equivalence suite
+# glslang, the OpenCL ICD loader, the GLVND libraries NVIDIA's Vulkan driver loads) and the few real images of ../shared/data the equivalence suite
 # reads. Run it on a Debian 12 (amd64) machine with network access; then, on the GPU machine, run
 # `bash ci/gpu-carried.sh DEPS_DIR [OUT_DIR]`.
 #
@@ -16,7 +16,8 @@ opts=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 "-oDir::State::Lists=
 mkdir -p "$lists/partial"
 apt-get "${opts[@]}" update -qq
 (cd "$deps/debs" && apt-get "${opts[@]}" download \
-  libvulkan1 libvulkan-dev glslang-tools ocl-icd-libopencl1 ocl-icd-opencl-dev)
+  libvulkan1 libvulkan-dev glslang-tools ocl-icd-libopencl1 ocl-icd-opencl-dev \
+  libglvnd0 libgl1 libglx0 libegl1 libgles2 libopengl0)  # NVIDIA's Vulkan ICD needs GLVND
 rm -rf "$lists"
 
 data="${PORTA_DATA_DIR:-../shared/data}"

@@ -18,7 +18,8 @@ opencl_loader_missing=0
 have_opencl_loader || opencl_loader_missing=1
 for f in "$deps"/debs/*.deb; do
   case "$(basename "$f")" in
-    libvulkan1_*) dpkg -x "$f" / ;;  # the loader, where the NVIDIA ICD's dlopen finds it
+    # The Vulkan loader and GLVND, where the NVIDIA ICD's dlopen finds them.
+    libvulkan1_* | libglvnd0_* | libgl1_* | libglx0_* | libegl1_* | libgles2_* | libopengl0_*) dpkg -x "$f" / ;;
     ocl-icd-*) [ "$opencl_loader_missing" = 1 ] && dpkg -x "$f" / ;;  # only where none is installed
     *) dpkg -x "$f" "$prefix" ;;
   esac
@@ -30,6 +31,11 @@ for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulka
            /etc/vulkan/icd.d/nvidia_icd.json; do
   if [ -f "$icd" ]; then export VK_DRIVER_FILES="$icd"; break; fi
 done
+echo "gpu-carried.sh: Vulkan ICD manifest: ${VK_DRIVER_FILES:-none found (the loader searches its defaults)}"
+[ -n "${VK_DRIVER_FILES:-}" ] && grep -h library_path "$VK_DRIVER_FILES"
+if [ -d /usr/local/nvidia/share/glvnd/egl_vendor.d ]; then
+  export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+fi
 
 cmake_args=(-DVulkan_INCLUDE_DIR="$prefix/usr/include"
             -DVulkan_GLSLANG_VALIDATOR_EXECUTABLE="$prefix/usr/bin/glslangValidator")
