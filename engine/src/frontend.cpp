@@ -170,8 +170,14 @@ StereoFeatures Frontend::detect_stereo(const ImageView& left, const ImageView& r
   check_image(right, "right");
   times_ = {};
   const std::int64_t t0 = now_ns();
+  // The two images are independent until stereo matching: one queue each, so that a backend with
+  // several queues overlaps them (stage profiling synchronises after each stage, serialising them).
+  backend_.use_queue(0);
   run_side(*sides_[0], left);
+  backend_.use_queue(1);
   run_side(*sides_[1], right);
+  backend_.use_queue(0);
+  backend_.join_queues();
   StereoFeatures out;
   out.left = collect(*sides_[0]);
   out.right = collect(*sides_[1]);

@@ -109,6 +109,14 @@ class Backend {
   /// True when device buffers are host memory (no copy is needed to read them on the host).
   virtual bool host_visible() const { return false; }
 
+  /// Independent streams of work (DESIGN.md §4): calls after `use_queue(q)` go to queue q (0 or 1,
+  /// e.g. one per camera of a stereo pair) and may overlap with work on the other queue. Work on one
+  /// queue never sees the other's results unless `join_queues()` came between: it makes later work
+  /// on the current queue wait for everything submitted to every queue. Transfers and downloads
+  /// behave as on the current queue. Backends with one queue ignore both calls (the default).
+  virtual void use_queue(int queue) { (void)queue; }
+  virtual void join_queues() {}
+
   // Kernels: DESIGN.md §3, one method per contract.
 
   /// §3.1: dst(x, y) from `src` through a map of dst.width * dst.height (x, y) int32 pairs in
