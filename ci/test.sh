@@ -10,7 +10,7 @@ jobs="${PORTA_JOBS:-2}"
 
 # ci/setup.sh installs PoCL (OpenCL) and lavapipe (Vulkan) on the CPU: their equivalence runs
 # must happen, so a backend that cannot run fails instead of being skipped.
-export PORTA_EQUIVALENCE_REQUIRE="${PORTA_EQUIVALENCE_REQUIRE:-opencl}"
+export PORTA_EQUIVALENCE_REQUIRE="${PORTA_EQUIVALENCE_REQUIRE:-opencl,vulkan}"
 
 cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON "$@"
 cmake --build "$build_dir" -j "$jobs"

@@ -1,0 +1,157 @@
+// Detection kernels of the Vulkan backend: FAST corner response, per-cell culling, pyramidal
+// feature aggregation (PFA) and the canonical compaction of the cell array (DESIGN.md §3.3-3.5);
+// shaders fast_crf.comp, cull_cells.comp, pfa_*.comp, compact_*.comp. No host round-trips: PFA and
+// compaction keep their intermediate state in device scratch memory.
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "vulkan/vk_runtime.hpp"
+#include "vulkan/vk_types.hpp"
+#include "vulkan/vulkan_backend.hpp"
+
+namespace porta::vulkan {
+
+namespace {
+
+struct FastCrfParams {  // fast_crf.comp (parameter buffer)
+  GlslLevels src, dst;
+  std::int32_t eps, edge, pad[2];
+};
+struct CullCellsParams {  // cull_cells.comp (parameter buffer)
+  GlslLevels layout;
+  GlslCells cells;
+};
+struct PfaStepParams {  // pfa_accumulate/decide/apply.comp (push constants)
+  std::int32_t scales[kMaxLevels];
+  std::int32_t total_cells, num_scales, width0, height0, reach, pad[3];
+};
+struct CompactParams {  // compact_count/scan/scatter.comp (push constants)
+  std::uint32_t total_cells, block, capacity, num_blocks, count_offset, pad[3];
+};
+static_assert(sizeof(PfaStepParams) <= kMaxPushBytes && sizeof(CompactParams) <= kMaxPushBytes);
+
+constexpr std::uint32_t kCompactBlock = 128;  // cells per invocation of the compaction
+
+}  // namespace
+
+// §3.3: one invocation per pixel of every level (rows of all levels end to end), one dispatch.
+void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                             Buffer& responses, const PyramidLayout& response_layout,
+                             const porta::FastParams& params) {
+  check_same_level_sizes(layout, response_layout, "fast_crf");
+  if (params.edge < 3)
+    throw BackendError("vulkan: fast_crf: edge " + std::to_string(params.edge) +
+                       " is below 3, the radius of the FAST circle; allowed: >= 3");
+  require_bytes(lut, 65536, "fast_crf", "the FAST table");
+  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
+  for (const Plane& p : response_layout.levels)
+    require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  FastCrfParams p{};
+  std::uint64_t max_width = 0, rows = 0;
+  p.src = rows_of_levels(layout, "fast_crf", max_width, rows);
+  p.dst = to_glsl(response_layout, "fast_crf");
+  p.eps = params.threshold;
+  p.edge = params.edge;
+  rt().dispatch("fast_crf", {&pyramid, &lut, &responses}, p, Work::grid(max_width, rows));
+}
+
+// §3.4: one workgroup per cell of every level, one dispatch; the workgroup reduces the cell
+// through shared memory (no subgroup operations, so any subgroup size gives the same bytes).
+void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
+                               const CellLayout& cell_layout, Buffer& cells) {
+  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
+    throw BackendError("vulkan: cull_cells: the cell layout has " +
+                       std::to_string(cell_layout.levels.size()) + " levels but the responses " +
+                       std::to_string(response_layout.num_levels()));
+  std::int64_t end_cell = 0;
+  for (const LevelCells& c : cell_layout.levels) {
+    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0 || c.cell_w <= 0 || c.cell_h <= 0 ||
+        static_cast<std::int64_t>(c.cell_w) * c.cell_h > (1 << 24))
+      throw BackendError("vulkan: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
+                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
+                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
+    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
+  }
+  for (const Plane& p : response_layout.levels)
+    require_plane_inside(responses, p, 2, "cull_cells", "response level");
+  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells",
+                "the cell array");
+  const CullCellsParams p{to_glsl(response_layout, "cull_cells"), to_glsl(cell_layout, "cull_cells")};
+  rt().dispatch("cull_cells", {&responses, &cells}, p, Work::groups(static_cast<std::uint64_t>(end_cell)));
+}
+
+// §3.5: three dispatches over the cells (accumulate with order-independent atomics, decide,
+// apply) with two level-0 sized scratch maps that are zero between calls (zero when allocated,
+// restored by the last step).
+void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const porta::PfaParams& params) {
+  const int width0 = params.level0_width, height0 = params.level0_height;
+  if (width0 <= 0 || height0 <= 0)
+    throw BackendError("vulkan: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is empty");
+  // The cpu backend throws when it meets a keypoint of a level without a scale; a shader cannot
+  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
+  if (params.scales_q16.size() < cell_layout.levels.size())
+    throw BackendError("vulkan: pfa_filter: " + std::to_string(params.scales_q16.size()) +
+                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
+  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
+  if (pixels0 > std::numeric_limits<std::int32_t>::max() / 4)
+    throw BackendError("vulkan: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is too large");
+  const int total = cell_layout.total_cells;
+  if (total <= 0) return;
+  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
+                "pfa_filter", "the cell array");
+  PfaStepParams p{};
+  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
+  for (int n = 0; n < num_scales; ++n) p.scales[n] = params.scales_q16[static_cast<std::size_t>(n)];
+  p.total_cells = total;
+  p.num_scales = num_scales;
+  p.width0 = width0;
+  p.height0 = height0;
+  p.reach = params.window / 2;
+  Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
+  Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
+  Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
+  const Work work = Work::items(static_cast<std::uint64_t>(total));
+  rt().dispatch("pfa_accumulate", {&cells, &sum_map, &level_map, &rejected}, p, work);
+  rt().dispatch("pfa_decide", {&cells, &sum_map, &level_map, &rejected}, p, work);
+  rt().dispatch("pfa_apply", {&cells, &sum_map, &level_map, &rejected}, p, work);
+}
+
+// Canonical compaction: per-block counts, a one-invocation scan that also writes the count, then a
+// per-block scatter; the order is the cell order whatever the device.
+void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
+  if (out.count == nullptr) throw BackendError("vulkan: compact_keypoints: the list has no count buffer");
+  if (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max())
+    throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
+                       " is out of range");
+  require_bytes(*out.count, out.count_offset_bytes + 4, "compact_keypoints", "the count");
+  const int total = std::max(total_cells, 0);
+  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
+                "compact_keypoints", "the cell array");
+  // Records past the items buffer are not written (the cpu backend would write past its end).
+  std::int64_t capacity = out.items == nullptr ? 0 : std::max(out.capacity, 0);
+  if (out.items != nullptr)
+    capacity = std::min<std::int64_t>(capacity,
+                                      static_cast<std::int64_t>(out.items->size_bytes() / sizeof(Keypoint)));
+
+  const std::uint32_t num_blocks = (static_cast<std::uint32_t>(total) + kCompactBlock - 1) / kCompactBlock;
+  Buffer& blocks =
+      scratch("compact_blocks", static_cast<std::size_t>(std::max<std::uint32_t>(num_blocks, 1)) * 4);
+  const CompactParams p{static_cast<std::uint32_t>(total),
+                        kCompactBlock,
+                        static_cast<std::uint32_t>(capacity),
+                        num_blocks,
+                        static_cast<std::uint32_t>(out.count_offset_bytes),
+                        {0, 0, 0}};
+  // Without items, the cell array stands in for the unused items binding.
+  const Buffer* items = capacity > 0 ? out.items : &cells;
+  rt().dispatch("compact_count", {&cells, &blocks, items, out.count}, p, Work::items(num_blocks));
+  rt().dispatch("compact_scan", {&cells, &blocks, items, out.count}, p, Work::items(1));
+  if (capacity > 0)
+    rt().dispatch("compact_scatter", {&cells, &blocks, items, out.count}, p, Work::items(num_blocks));
+}
+
+}  // namespace porta::vulkan

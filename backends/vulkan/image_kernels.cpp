@@ -1,0 +1,116 @@
+// Image kernels of the Vulkan backend: rectification, pyramid construction and the descriptor
+// blur (DESIGN.md §3.1, §3.2, §3.7); shaders rectify.comp, build_pyramid.comp, blur_*.comp.
+// Argument checks mirror the cpu backend's (backends/cpu/image_kernels.cpp).
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "vulkan/vk_runtime.hpp"
+#include "vulkan/vk_types.hpp"
+#include "vulkan/vulkan_backend.hpp"
+
+namespace porta::vulkan {
+
+namespace {
+
+struct RectifyParams {  // rectify.comp (push constants)
+  GlslPlane src, dst;
+};
+struct PyramidParams {  // build_pyramid.comp (push constants)
+  GlslPlane above, level;
+  std::int32_t table_offset, pad[3];
+};
+struct BlurParams {  // blur_horizontal.comp, blur_vertical.comp (parameter buffer)
+  GlslLevels layout;
+  std::int32_t scratch_offset[kMaxLevels];
+  std::int32_t taps[kMaxLevels];
+};
+static_assert(sizeof(BlurParams) == 208 + 48 + 48);
+
+}  // namespace
+
+// §3.1: one invocation per destination pixel.
+void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
+                            const Plane& dst_plane) {
+  require_plane_inside(src, src_plane, 1, "rectify", "source");
+  require_plane_inside(dst, dst_plane, 1, "rectify", "destination");
+  const std::int64_t map_bytes = static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4;
+  require_bytes(map, map_bytes, "rectify", "the map");
+  if (dst_plane.width <= 0 || dst_plane.height <= 0) return;
+  if (map_bytes / 4 > std::numeric_limits<std::int32_t>::max())
+    throw BackendError("vulkan: rectify: the map has more than 2^31 entries");
+  // An empty source reads 0 everywhere: the shader's bounds tests see width or height 0.
+  RectifyParams params{to_glsl(src_plane), to_glsl(dst_plane)};
+  if (src_plane.width <= 0 || src_plane.height <= 0) params.src = {0, 0, 0, 0};
+  rt().dispatch(
+      "rectify", {&src, &map, &dst}, params,
+      Work::grid(static_cast<std::uint64_t>(dst_plane.width), static_cast<std::uint64_t>(dst_plane.height)));
+}
+
+// §3.2: one dispatch per level, in order (each reads the level above; barriers between them).
+void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
+                                  const std::vector<std::int32_t>& level_offset) {
+  const int levels = layout.num_levels();
+  if (levels > 1 && static_cast<int>(level_offset.size()) < levels - 1)
+    throw BackendError("vulkan: build_pyramid: " + std::to_string(level_offset.size()) +
+                       " level offsets given for " + std::to_string(levels) + " levels (need levels - 1)");
+  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "build_pyramid", "level");
+  for (int n = 1; n < levels; ++n) {
+    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
+    const std::int64_t offset = level_offset[static_cast<std::size_t>(n - 1)];
+    if (offset < 0)
+      throw BackendError("vulkan: build_pyramid: negative resize table offset " + std::to_string(offset) +
+                         " for level " + std::to_string(n));
+    const std::int64_t table_end = offset + 2 * static_cast<std::int64_t>(level.width) + 2 * level.height;
+    require_bytes(resize_table, table_end * 4, "build_pyramid",
+                  "the resize table of level " + std::to_string(n));
+  }
+  for (int n = 1; n < levels; ++n) {
+    const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
+    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
+    if (level.width <= 0 || level.height <= 0) continue;
+    const PyramidParams params{
+        to_glsl(above), to_glsl(level), level_offset[static_cast<std::size_t>(n - 1)], {0, 0, 0}};
+    rt().dispatch(
+        "build_pyramid", {&pyramid, &resize_table}, params,
+        Work::grid(static_cast<std::uint64_t>(level.width), static_cast<std::uint64_t>(level.height)));
+  }
+}
+
+// §3.7: two dispatches over all levels: the horizontal pass into a packed uint16 scratch plane per
+// level ("blur_h"), then the vertical pass into `blurred`.
+void VulkanBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
+                         const std::array<std::int32_t, 7>& taps) {
+  std::int32_t tap_sum = 0;
+  for (const std::int32_t t : taps) {
+    if (t < 0) throw BackendError("vulkan: blur: taps must be non-negative (see build_blur_taps())");
+    tap_sum += t;
+  }
+  if (tap_sum != 256)
+    throw BackendError("vulkan: blur: taps sum to " + std::to_string(tap_sum) +
+                       ", must sum to 256 (see build_blur_taps())");
+  for (const Plane& level : layout.levels) {
+    require_plane_inside(pyramid, level, 1, "blur", "pyramid level");
+    require_plane_inside(blurred, level, 1, "blur", "blurred level");
+  }
+  BlurParams params{};
+  std::uint64_t max_width = 0, rows = 0;
+  params.layout = rows_of_levels(layout, "blur", max_width, rows);
+  std::int64_t elements = 0;
+  for (int n = 0; n < params.layout.count; ++n) {
+    const GlslPlane& p = params.layout.level[n];
+    params.scratch_offset[n] = static_cast<std::int32_t>(elements);
+    elements += static_cast<std::int64_t>(p.width) * p.height;
+    if (elements * 2 > std::numeric_limits<std::int32_t>::max())
+      throw BackendError("vulkan: blur: the pyramid has more than 2^30 pixels");
+  }
+  if (elements == 0) return;
+  for (int k = 0; k < 7; ++k) params.taps[k] = taps[static_cast<std::size_t>(k)];
+  Buffer& horizontal = scratch("blur_h", static_cast<std::size_t>(elements) * 2);
+  rt().dispatch("blur_horizontal", {&pyramid, &horizontal}, params, Work::grid(max_width, rows));
+  rt().dispatch("blur_vertical", {&horizontal, &blurred}, params, Work::grid(max_width, rows));
+}
+
+}  // namespace porta::vulkan

@@ -1,0 +1,70 @@
+#include "vulkan/vulkan_backend.hpp"
+
+#include "vulkan/vk_context.hpp"
+#include "vulkan/vk_runtime.hpp"
+
+namespace porta::vulkan {
+
+VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make_shared<Runtime>(options)) {}
+
+VulkanBackend::~VulkanBackend() {
+  scratch_.clear();
+  runtime_.reset();  // lives on while buffers it made do
+}
+
+std::string VulkanBackend::device_name() const { return runtime_->context().entry().name; }
+
+std::unique_ptr<Buffer> VulkanBackend::allocate(std::size_t bytes) { return runtime_->allocate(bytes); }
+
+void VulkanBackend::upload(Buffer& dst, std::size_t dst_offset, const void* src, std::size_t bytes) {
+  runtime_->upload(dst, dst_offset, src, bytes);
+}
+
+void VulkanBackend::download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) {
+  runtime_->download(src, src_offset, dst, bytes);
+}
+
+void VulkanBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) {
+  runtime_->fill(dst, offset, bytes, value);
+}
+
+void VulkanBackend::synchronize() { runtime_->flush(); }
+
+VulkanStats VulkanBackend::stats() const { return runtime_->stats(); }
+
+bool VulkanBackend::validation_enabled() const { return runtime_->context().validation(); }
+
+Buffer& VulkanBackend::scratch(const std::string& name, std::size_t bytes) {
+  auto& slot = scratch_[name];
+  if (!slot || slot->size_bytes() < bytes) slot = allocate(bytes);
+  return *slot;
+}
+
+}  // namespace porta::vulkan
+
+namespace porta {
+
+void register_vulkan_backend(BackendRegistry& registry) {
+  registry.add(
+      "vulkan",
+      [] {
+        BackendInfo info{"vulkan", true, false, {}};
+        const vulkan::DeviceSurvey survey = vulkan::survey_devices();
+        if (!survey.error.empty()) {
+          info.detail = "no usable Vulkan driver: " + survey.error;
+          return info;
+        }
+        if (survey.devices.empty()) {
+          info.detail = "no Vulkan device found (no driver/ICD installed; e.g. Debian's mesa-vulkan-drivers)";
+          return info;
+        }
+        for (const auto& d : survey.devices) info.available = info.available || d.missing.empty();
+        info.detail = vulkan::list_devices(survey.devices);
+        return info;
+      },
+      [](const BackendOptions& options) -> std::unique_ptr<Backend> {
+        return std::make_unique<vulkan::VulkanBackend>(options);
+      });
+}
+
+}  // namespace porta

@@ -1,0 +1,125 @@
+// The Vulkan backend (Vulkan 1.1+ compute): one device and one compute queue; every kernel of
+// DESIGN.md §3 is a GLSL compute shader of shaders/vulkan, compiled to SPIR-V at build time and
+// embedded in the library (cmake/EmbedSpirv.cmake). This header names no Vulkan type: the Vulkan
+// objects live in vk_runtime.hpp / vk_context.hpp, which only the backend's own files include.
+//
+// How work reaches the device (vk_runtime.hpp):
+//  * Kernel calls record into one pending batch; synchronize(), a download (or a full staging or
+//    parameter area) submits it and waits. A full compute/transfer memory barrier separates
+//    consecutive commands. A batch whose commands equal those of an earlier one (same kernels,
+//    buffers, parameters offsets, push constants and sizes) replays that batch's command buffer
+//    instead of recording a new one: a Frontend's frames are recorded once and replayed.
+//  * Pipelines are created on first use, once per kernel; descriptor sets are cached by the
+//    buffers they bind, so frames that reuse their buffers allocate none (see stats()).
+//  * Kernel buffers are device-local. Where that memory is also host-visible, coherent and
+//    cached (unified memory, e.g. lavapipe) the host reads and writes it directly; otherwise
+//    uploads and downloads go through a host-visible staging buffer grown on demand.
+//
+// Adding a kernel (the pattern every *_kernels.cpp follows):
+//  1. Write shaders/vulkan/<kernel>.comp: `#version 450`, `#extension GL_GOOGLE_include_directive
+//     : require`, `#include "common.glsl"` (8/16-bit storage, keypoint packing, index helpers),
+//     a `layout(local_size_x = ...) in;`, its buffers as `layout(std430, set = 0, binding = i)
+//     buffer ...` with bindings 0..N-1 in the order the host passes them, and its parameters as
+//       - `layout(std430, push_constant) uniform Params { ... } p;` when they fit 128 bytes, or
+//       - `layout(std430, set = 1, binding = 0) readonly buffer Params { ... } p;` when larger
+//         (a per-dispatch slice of a host-visible parameter buffer; at most kMaxParamsBytes).
+//     The file is picked up by the build (glob) and embedded under the name <kernel>.
+//  2. Mirror the parameter block in a host struct with the same std430 layout (vk_types.hpp has
+//     the shared ones: GlslPlane, GlslLevels, GlslCells, with static_asserts). The shader reads
+//     keypoint arrays as `uvec2` (common.glsl kp_x() ... make_keypoint()), so 8/16-bit arithmetic
+//     is never needed. Write the .comp as a port of the cpu kernel: same integer types and
+//     rounding; outputs in canonical order (no order-dependent atomics).
+//  3. In the kernel method: check the arguments as the cpu backend does (throw BackendError
+//     "vulkan: <kernel>: ..."), then
+//       rt().dispatch("<kernel>", {&buffer0, &buffer1, ...}, params, Work::items(n));
+//     with Work::items(n) (one invocation per item; the shader takes porta_linear_index()),
+//     Work::grid(w, h) (2-D, gl_GlobalInvocationID.xy) or Work::groups(n) (one workgroup per
+//     item; porta_linear_group()). The runtime checks the shader's bindings and parameter block
+//     against the call (a mismatch throws, naming the kernel), creates the pipeline on first use
+//     and caches the descriptor set. Scratch memory that lives as long as the backend: scratch().
+//  Shaders must not depend on the subgroup size (lavapipe's is 8, NVIDIA's 32): reduce through
+//  shared memory and barrier(), or with atomics whose result does not depend on order.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "porta/backend.hpp"
+#include "porta/registry.hpp"
+
+namespace porta::vulkan {
+
+class Runtime;  // vk_runtime.hpp
+
+/// Counters of Vulkan object creation and submission since the backend was created; tests use
+/// them to check that a steady frame loop creates nothing.
+struct VulkanStats {
+  std::uint64_t buffers_allocated = 0;
+  std::uint64_t pipelines_created = 0;
+  std::uint64_t descriptor_sets_allocated = 0;
+  std::uint64_t command_buffers_recorded = 0;  ///< batches recorded (cache misses)
+  std::uint64_t command_buffers_replayed = 0;  ///< batches that reused a recorded command buffer
+  std::uint64_t submits = 0;
+};
+
+class VulkanBackend final : public Backend {
+ public:
+  /// Selects the device by options.device, else $PORTA_VULKAN_DEVICE, else the first discrete,
+  /// integrated, virtual, then cpu device: an index or a case-insensitive part of its name.
+  /// $PORTA_VULKAN_VALIDATION=1 enables the Khronos validation layer (on by default in debug
+  /// builds when installed); its errors are thrown as BackendError at the next submit.
+  explicit VulkanBackend(const BackendOptions& options = {});
+  ~VulkanBackend() override;
+
+  std::string name() const override { return "vulkan"; }
+  std::string device_name() const override;
+
+  std::unique_ptr<Buffer> allocate(std::size_t bytes) override;
+  void upload(Buffer& dst, std::size_t dst_offset, const void* src, std::size_t bytes) override;
+  void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) override;
+  void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
+  void synchronize() override;
+
+  void rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
+               const Plane& dst_plane) override;
+  void build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
+                     const std::vector<std::int32_t>& level_offset) override;
+  void fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
+                const PyramidLayout& response_layout, const FastParams& params) override;
+  void cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
+                  const CellLayout& cell_layout, Buffer& cells) override;
+  void pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) override;
+  void compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) override;
+  void orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
+              const std::array<int, 16>& umax, const Buffer& boundaries, int bins) override;
+  void blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
+            const std::array<std::int32_t, 7>& taps) override;
+  void orb_describe(const Buffer& blurred, const PyramidLayout& layout, ConstDeviceList keypoints,
+                    const Buffer& pattern, Buffer& descriptors) override;
+  void stereo_match(const Buffer& left_pyramid, const Buffer& right_pyramid, const PyramidLayout& layout,
+                    ConstDeviceList left_keypoints, const Buffer& left_descriptors,
+                    ConstDeviceList right_keypoints, const Buffer& right_descriptors,
+                    const StereoParams& params, Buffer& matches) override;
+  void projection_match(ConstDeviceList keypoints, const Buffer& keypoint_descriptors, const Buffer& queries,
+                        const Buffer& query_descriptors, int num_queries,
+                        const std::vector<std::int32_t>& scales_q16, Buffer& results) override;
+
+  VulkanStats stats() const;
+  /// True when the Khronos validation layer is active.
+  bool validation_enabled() const;
+
+  // ---- for the kernel files ----
+  Runtime& rt() { return *runtime_; }
+  /// Device memory that lives as long as the backend, grown on demand (never shrunk); the
+  /// contents are unspecified after growth (zero when first made).
+  Buffer& scratch(const std::string& name, std::size_t bytes);
+
+ private:
+  std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
+  std::map<std::string, std::unique_ptr<Buffer>> scratch_;
+};
+
+}  // namespace porta::vulkan
