@@ -72,6 +72,14 @@ std::map<std::string, BackendSlot>& slots() {
   return s;
 }
 
+}  // namespace
+
+void release_backends() {
+  for (auto& [name, slot] : slots()) slot.backend.reset();
+}
+
+namespace {
+
 class SummaryListener : public ::testing::EmptyTestEventListener {
   void OnTestEnd(const ::testing::TestInfo& info) override {
     Current& c = current();

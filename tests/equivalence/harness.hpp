@@ -35,6 +35,9 @@ inline constexpr const char* kSelfTestBackend = "selftest";
 /// "selftest" under PORTA_EQUIVALENCE_SELFTEST=1, restricted to PORTA_EQUIVALENCE_BACKENDS
 /// (comma-separated) when that is set.
 const std::vector<std::string>& backends_under_test();
+/// Destroys every backend made for the run. Called before main returns: a backend destroyed during
+/// static destruction may outlive its driver's own teardown (seen as a crash at exit on NVIDIA).
+void release_backends();
 /// Why PORTA_EQUIVALENCE_BACKENDS is invalid (an unknown name), or empty.
 std::string backend_selection_error();
 

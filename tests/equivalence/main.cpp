@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
       status = 1;
     }
   }
+  release_backends();
   const auto missing = required_backends_not_run();
   for (const auto& b : missing)
     std::cout << "REQUIRED BACKEND NOT RUN: " << b << " (listed in PORTA_EQUIVALENCE_REQUIRE)\n";
