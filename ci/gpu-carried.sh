@@ -1,15 +1,24 @@
 #!/usr/bin/env bash
-# Runs ci/gpu.sh on a GPU machine that has CUDA and the NVIDIA driver but no package manager or
-# network. It unpacks the packages that ci/fetch-gpu-deps.sh put in DEPS_DIR: the Vulkan loader
+# Runs ci/gpu.sh (or another script, e.g. ci/gpu-bench.sh) on a GPU machine that has CUDA and
+# the NVIDIA driver but no package manager or network. It unpacks the packages that
+# ci/fetch-gpu-deps.sh put in DEPS_DIR: the Vulkan loader
 # into / (the driver's ICD needs it on the default library path), the OpenCL ICD loader there too
 # when none is installed, the Vulkan headers and glslang into a private prefix; points CMake and
 # the loaders at them; and uses DEPS_DIR/data as the real test images. Needs root.
 #
-#   usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR]
+#   usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR [SCRIPT]]
+#
+# SCRIPT (default ci/gpu.sh, the equivalence suite) is run as `bash SCRIPT OUT_DIR` in that
+# environment; ci/gpu-bench.sh there gives the throughput matrix and its Python peer.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
-deps="$(cd "${1:?usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR]}" && pwd)"
+deps="$(cd "${1:?usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR [SCRIPT]]}" && pwd)"
 out="${2:-gpu-results}"
+script="${3:-ci/gpu.sh}"
+if [ ! -f "$script" ]; then
+  echo "gpu-carried.sh: no script '$script' (paths are relative to the repository root)" >&2
+  exit 1
+fi
 prefix=/tmp/porta-deps
 mkdir -p "$prefix"
 
@@ -44,4 +53,4 @@ if [ -e /usr/lib/x86_64-linux-gnu/libvulkan.so.1 ]; then
 fi
 export PORTA_GPU_CMAKE_ARGS="${cmake_args[*]} ${PORTA_GPU_CMAKE_ARGS:-}"
 [ -d "$deps/data" ] && export PORTA_DATA_DIR="$deps/data"
-exec bash ci/gpu.sh "$out"
+exec bash "$script" "$out"

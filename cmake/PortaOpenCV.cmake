@@ -2,6 +2,16 @@
 # libopencv-dev (which pulls in every module and its GUI stack); ci/setup.sh installs just the
 # modules we need, so when the CMake package is absent we locate their headers and libraries here.
 # Result: OpenCV_FOUND and OpenCV_LIBS (imported targets).
+#
+# -DPORTA_FORCE_NO_OPENCV=ON builds as if OpenCV were absent (OpenCV_FOUND false), to check on a
+# development machine what a machine without OpenCV C++ (the GPU machine) builds and runs.
+option(PORTA_FORCE_NO_OPENCV "Build as if OpenCV were not installed" OFF)
+if(PORTA_FORCE_NO_OPENCV)
+  set(OpenCV_FOUND FALSE)
+  set(OpenCV_LIBS "")
+  message(STATUS "PortaSLAM: OpenCV ignored (PORTA_FORCE_NO_OPENCV=ON)")
+  return()
+endif()
 set(_porta_cv_modules core imgproc imgcodecs features2d calib3d flann)
 find_package(OpenCV QUIET CONFIG COMPONENTS core imgproc imgcodecs features2d calib3d)
 if(NOT OpenCV_FOUND)

@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "level_colours.hpp"
 #include "porta/tables.hpp"
 
 namespace porta::app {
@@ -24,12 +25,9 @@ cv::Point fixed_point(double x, double y) {
   return {static_cast<int>(std::lround(x * kOne)), static_cast<int>(std::lround(y * kOne))};
 }
 
-// Twelve well-separated hues (BGR), one per possible level.
 cv::Scalar level_colour(int level) {
-  static const cv::Scalar palette[12] = {
-      {60, 60, 255},  {40, 160, 255}, {40, 230, 230}, {60, 220, 60},  {230, 200, 40}, {255, 110, 40},
-      {230, 60, 200}, {150, 90, 255}, {170, 255, 170}, {255, 255, 120}, {120, 200, 255}, {255, 170, 220}};
-  return palette[level % 12];
+  const auto& c = kLevelColoursBgr[static_cast<std::size_t>(level) % kLevelColoursBgr.size()];
+  return {static_cast<double>(c[0]), static_cast<double>(c[1]), static_cast<double>(c[2])};
 }
 
 // Turbo colour map over [lo, hi], without its darkest eighth so that small disparities stay

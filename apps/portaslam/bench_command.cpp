@@ -1,5 +1,6 @@
 // `portaslam bench`: the frontend throughput matrix (resolutions x pyramid levels x modes, per
 // backend), with OpenCV's cv::ORB on the CPU timed on the same images in the same run as a peer.
+// A build without OpenCV C++ has no peer and says so; bench/orb_peer.py times cv2.ORB from Python.
 // One timed frame = the wall time of one Frontend::detect / detect_stereo call, which uploads the
 // image, runs every kernel, and downloads keypoints, descriptors and matches (a download waits
 // for the device), so it is the whole cost a SLAM system pays per frame.
@@ -13,8 +14,6 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
-#include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -26,11 +25,20 @@
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
 
+#if PORTA_APPS_HAVE_OPENCV
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#endif
+
 namespace porta::app {
 
 namespace {
 
 const char* const kPeerName = "opencv-orb";
+constexpr bool kPeerBuilt = PORTA_APPS_HAVE_OPENCV;
+const char* const kPeerNotBuilt = "peer not built (no OpenCV C++)";
+const char* const kPythonPeerHint =
+    "bench/orb_peer.py --ours FILE.json times cv2.ORB on the same images and prints the ratios";
 
 using Clock = std::chrono::steady_clock;
 
@@ -87,10 +95,6 @@ void measure(Row& row, int warmup, int frames, TimedCall&& call) {
   row.mean_matches = matches / frames;
 }
 
-ImageView view_of(const cv::Mat& gray) {
-  return {gray.data, gray.cols, gray.rows, static_cast<int>(gray.step)};
-}
-
 void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOptions& options) {
   FrontendSettings settings;
   settings.levels = row.levels;
@@ -98,23 +102,31 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
   frontend_options.describe = row.mode != BenchMode::detect;
   Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
   measure(row, options.warmup, options.frames, [&](std::size_t frame) {
-    const cv::Mat& left = in.left[frame % in.left.size()];
+    const Image& left = in.left[frame % in.left.size()];
     FrameResult r;
     if (row.mode == BenchMode::stereo) {
-      const cv::Mat& right = in.right[frame % in.right.size()];
+      const Image& right = in.right[frame % in.right.size()];
       const Clock::time_point t0 = Clock::now();
-      const StereoFeatures f = frontend.detect_stereo(view_of(left), view_of(right));
+      const StereoFeatures f = frontend.detect_stereo(left.view(), right.view());
       r.us = elapsed_us(t0);
       r.keypoints = static_cast<double>(f.left.keypoints.size() + f.right.keypoints.size()) / 2.0;
       r.matches = f.num_matches();
     } else {
       const Clock::time_point t0 = Clock::now();
-      const Features f = frontend.detect(view_of(left));
+      const Features f = frontend.detect(left.view());
       r.us = elapsed_us(t0);
       r.keypoints = static_cast<double>(f.keypoints.size());
     }
     return r;
   });
+}
+
+#if PORTA_APPS_HAVE_OPENCV
+
+// A cv::Mat header on an image's pixels (no copy).
+cv::Mat mat_of(const Image& image) {
+  return cv::Mat(image.height(), image.width(), CV_8U, const_cast<std::uint8_t*>(image.data()),
+                 static_cast<std::size_t>(image.pitch_bytes()));
 }
 
 // cv::ORB with nfeatures and `levels`, our default scale (1.2) and FAST threshold (20), OpenCV's
@@ -128,7 +140,8 @@ void time_peer(Row& row, const BenchFrames& in, const BenchOptions& options) {
                       cv::ORB::HARRIS_SCORE, 31, ours.fast_threshold);
   cv::BFMatcher matcher(cv::NORM_HAMMING, true);
   measure(row, options.warmup, options.frames, [&](std::size_t frame) {
-    const cv::Mat& left = in.left[frame % in.left.size()];
+    const cv::Mat left = mat_of(in.left[frame % in.left.size()]);
+    const cv::Mat right = row.mode == BenchMode::stereo ? mat_of(in.right[frame % in.right.size()]) : cv::Mat();
     std::vector<cv::KeyPoint> kl, kr;
     cv::Mat dl, dr;
     std::vector<cv::DMatch> matches;
@@ -139,7 +152,7 @@ void time_peer(Row& row, const BenchFrames& in, const BenchOptions& options) {
     } else {
       orb->detectAndCompute(left, cv::noArray(), kl, dl);
       if (row.mode == BenchMode::stereo) {
-        orb->detectAndCompute(in.right[frame % in.right.size()], cv::noArray(), kr, dr);
+        orb->detectAndCompute(right, cv::noArray(), kr, dr);
         if (!dl.empty() && !dr.empty()) matcher.match(dl, dr, matches);
       }
     }
@@ -150,6 +163,12 @@ void time_peer(Row& row, const BenchFrames& in, const BenchOptions& options) {
     return r;
   });
 }
+
+#else
+
+void time_peer(Row&, const BenchFrames&, const BenchOptions&) {}  // never called: kPeerBuilt is false
+
+#endif
 
 // ---- The machine, the date, the commit -----------------------------------------------------------
 
@@ -184,7 +203,7 @@ struct Machine {
   std::string date;    // UTC, ISO 8601
   std::string commit;  // short hash, or "unknown"
   bool worktree_modified = false;
-  int opencv_threads = 0;
+  int opencv_threads = 0;  // cv::getNumThreads(); 0 without OpenCV
 };
 
 Machine describe_machine() {
@@ -208,7 +227,9 @@ Machine describe_machine() {
     break;
   }
   if (m.commit.empty()) m.commit = "unknown";
+#if PORTA_APPS_HAVE_OPENCV
   m.opencv_threads = cv::getNumThreads();
+#endif
   return m;
 }
 
@@ -242,9 +263,13 @@ void print_header(const Report& r) {
               m.worktree_modified ? " (with local changes)" : "");
   for (const auto& [name, device] : r.devices)
     std::printf("backend   %s: %s\n", name.c_str(), device.c_str());
+#if PORTA_APPS_HAVE_OPENCV
   if (r.options.peer)
     std::printf("peer      %s: OpenCV %s on %d threads; %s\n", kPeerName, CV_VERSION, m.opencv_threads,
                 kPeerNote);
+#else
+  if (r.options.peer) std::printf("peer      %s: %s; %s\n", kPeerName, kPeerNotBuilt, kPythonPeerHint);
+#endif
   std::printf("timing    %s\n", kTimingNote);
   std::printf("data      %s\n", r.data_folder.c_str());
   for (const auto& [size, source] : r.inputs)
@@ -270,8 +295,10 @@ void print_table(const Report& r) {
   std::printf(
       "\nframes/s = 1e6 / median (stereo: pairs/s); keypoints = mean per image; matches = mean stereo "
       "matches per pair\n");
-  if (r.options.peer)
+  if (r.options.peer && kPeerBuilt)
     std::printf("speedup = %s median / our median, measured in this run (> 1: ours is faster)\n", kPeerName);
+  else if (r.options.peer)
+    std::printf("speedup: none, %s; %s\n", kPeerNotBuilt, kPythonPeerHint);
   std::printf("%.1f s in all\n", r.seconds);
 }
 
@@ -300,9 +327,15 @@ void write_json(std::ostream& out, const Report& r) {
     out << (i ? ", " : "") << "{\"name\": " << json_string(r.devices[i].first)
         << ", \"device\": " << json_string(r.devices[i].second) << "}";
   out << "],\n  \"peer\": ";
+#if PORTA_APPS_HAVE_OPENCV
   if (o.peer)
     out << "{\"name\": \"" << kPeerName << "\", \"opencv_version\": \"" << CV_VERSION
         << "\", \"opencv_threads\": " << m.opencv_threads << ", \"what\": " << json_string(kPeerNote) << "}";
+#else
+  if (o.peer)
+    out << "{\"name\": \"" << kPeerName << "\", \"built\": false, \"error\": " << json_string(kPeerNotBuilt)
+        << ", \"what\": " << json_string(kPythonPeerHint) << "}";
+#endif
   else
     out << "null";
   out << ",\n  \"settings\": {\"frames\": " << o.frames << ", \"warmup\": " << o.warmup
@@ -395,7 +428,7 @@ void run_cell(Report& report, const std::vector<std::unique_ptr<Backend>>& backe
     report.rows.push_back(std::move(row));
     progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
   }
-  if (!report.options.peer) return;
+  if (!report.options.peer || !kPeerBuilt) return;
   Row peer(kPeerName, cell.size, cell.levels, cell.mode);
   const auto ours = report.rows.begin() + static_cast<std::ptrdiff_t>(first_row);
   const auto reference = std::find_if(ours, report.rows.end(), [](const Row& r) { return r.error.empty(); });
@@ -425,7 +458,9 @@ int run(const BenchOptions& options) {
 
   const Clock::time_point start = Clock::now();
   const std::size_t total = options.resolutions.size() * options.levels.size() * options.modes.size() *
-                            (backends.size() + (options.peer ? 1 : 0));
+                            (backends.size() + (options.peer && kPeerBuilt ? 1 : 0));
+  if (options.peer && !kPeerBuilt)
+    std::fprintf(stderr, "portaslam bench: %s: no %s rows; %s\n", kPeerNotBuilt, kPeerName, kPythonPeerHint);
   for (const Resolution& size : options.resolutions) {
     const BenchFrames frames = load_bench_frames(data, size);
     report.inputs.emplace_back(size.text(), frames.source);

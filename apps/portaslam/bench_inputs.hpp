@@ -4,11 +4,11 @@
 #pragma once
 
 #include <filesystem>
-#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "bench_options.hpp"
+#include "porta/image.hpp"
 
 namespace porta::app {
 
@@ -22,17 +22,18 @@ struct DataFolder {
 /// otherwise), else ../shared/data from the current folder, else from the source tree, else none.
 DataFolder locate_data_folder(const std::string& cli_value);
 
-/// The frames of one resolution: 8-bit gray, continuous, all of the requested size.
+/// The frames of one resolution: 8-bit gray, packed (pitch = width), all of the requested size.
 struct BenchFrames {
-  std::vector<cv::Mat> left;
-  std::vector<cv::Mat> right;  ///< right[i] is the "right image" of left[i] (timing only)
+  std::vector<Image> left;
+  std::vector<Image> right;  ///< right[i] is the "right image" of left[i] (timing only)
   std::string source;          ///< what they are and how they were fitted to the size, in words
   bool synthetic = false;
 };
 
 /// 752x480 (EuRoC's own size): EuRoC cam0/cam1 pairs as recorded. Any other size: KITTI 07 left
 /// frames (the next frame as the "right" image), else EuRoC, else the built-in synthetic pair in 8
-/// row-rolled variants; each centre-cropped to the size's aspect ratio, then resized to it.
+/// row-rolled variants; each centre-cropped to the size's aspect ratio, then resized to it (with
+/// cv::resize, or without OpenCV with plain_resize.hpp's equivalent of it).
 BenchFrames load_bench_frames(const DataFolder& data, Resolution size);
 
 }  // namespace porta::app

@@ -166,7 +166,13 @@ std::string bench_usage() {
          "  --data DIR           the shared data folder (default: $PORTA_DATA_DIR, else ../shared/data\n"
          "                       from the current folder, else from the source tree)\n"
          "\n"
-         "Exit status: 0 success; 1 bad option, value or backend, or a failed run (message on stderr).\n";
+         "Exit status: 0 success; 1 bad option, value or backend, or a failed run (message on stderr).\n"
+#if !PORTA_APPS_HAVE_OPENCV
+         "\n"
+         "This portaslam was built without OpenCV C++: the cv::ORB peer is not built (the header says\n"
+         "so); bench/orb_peer.py --ours FILE.json times cv2.ORB from Python on the same images instead.\n"
+#endif
+      ;
 }
 
 }  // namespace porta::app

@@ -1,6 +1,7 @@
 // `portaslam features`: runs the feature frontend (DESIGN.md §3) on one image or a rectified
 // stereo pair with any backend, prints what it found and how long each stage took, and writes an
-// annotated PNG. With no image it runs on a built-in synthetic pair with known disparities.
+// annotated PNG (drawn with OpenCV; without OpenCV a plain one, written with libpng). With no image
+// it runs on a built-in synthetic pair with known disparities.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,10 +12,18 @@
 #include <string>
 #include <vector>
 
+#if PORTA_APPS_HAVE_OPENCV
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "annotate.hpp"
+#else
+#include <cctype>
+
+#include "imageio/png_file.hpp"
+#include "plain_picture.hpp"
+#endif
+
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "features_options.hpp"
@@ -161,15 +170,27 @@ void print_times(const StageTimes& t, int repeat, bool stereo) {
   line("total", t.total_ns);
 }
 
+#if PORTA_APPS_HAVE_OPENCV
+bool have_image_writer(const std::string& path) { return cv::haveImageWriter(path); }
+#else
+bool have_image_writer(const std::string& path) {  // libpng: a name ending in .png, any case
+  std::string extension = std::filesystem::path(path).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".png";
+}
+#endif
+
 // Checked before any work so that a typo in --out does not cost a whole run.
 void check_output_path(const std::string& path) {
-  if (!cv::haveImageWriter(path))
+  if (!have_image_writer(path))
     throw CliError("cannot write '" + path + "': no image writer for that file name (use a name ending in .png)");
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   std::error_code ec;
   if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
     throw CliError("cannot write '" + path + "': folder '" + folder.string() + "' does not exist");
 }
+
+#if PORTA_APPS_HAVE_OPENCV
 
 void write_png(const std::string& path, const cv::Mat& image) {
   bool written = false;
@@ -180,6 +201,44 @@ void write_png(const std::string& path, const cv::Mat& image) {
   }
   if (!written) throw CliError("cannot write '" + path + "': check that its folder exists and is writable");
 }
+
+// Draws the result and writes it; returns the line that says what was written.
+std::string write_picture(const std::string& path, const Inputs& in, const RunResult& result,
+                          const FrontendTables& tables) {
+  const bool stereo = in.right.has_value();
+  cv::Mat annotated;
+  if (stereo) {
+    KnownDisparity known;
+    if (in.synthetic) known = {&in.synthetic->disparity_px, in.synthetic->left.width()};
+    annotated = draw_stereo(in.left, *in.right, result.stereo, tables, known);
+  } else {
+    annotated = draw_features(in.left, result.stereo.left, tables);
+  }
+  write_png(path, annotated);
+  return "wrote " + path + " (" + std::to_string(annotated.cols) + "x" + std::to_string(annotated.rows) + "): " +
+         (stereo ? "left | right with keypoints and sample match lines; below, matches coloured by disparity"
+                 : "keypoints coloured by level, tick = orientation");
+}
+
+#else
+
+std::string write_picture(const std::string& path, const Inputs& in, const RunResult& result,
+                          const FrontendTables& tables) {
+  const bool stereo = in.right.has_value();
+  const RgbPicture picture = stereo ? plain_stereo(in.left, *in.right, result.stereo, tables)
+                                    : plain_features(in.left, result.stereo.left, tables);
+  try {
+    io::write_png_rgb(path, picture.width, picture.height, picture.rgb.data(),
+                      static_cast<std::size_t>(picture.width) * 3);
+  } catch (const io::PngError& e) {
+    throw CliError("cannot write '" + path + "': " + e.what() + " (check that its folder is writable)");
+  }
+  return "wrote " + path + " (" + std::to_string(picture.width) + "x" + std::to_string(picture.height) + "): " +
+         (stereo ? "left | right, " : "") +
+         "keypoints as crosses coloured by level (a plain picture: this portaslam was built without OpenCV)";
+}
+
+#endif
 
 int run(const FeaturesOptions& options) {
   options.settings.validate();
@@ -226,18 +285,7 @@ int run(const FeaturesOptions& options) {
   }
   print_times(median_times(times), options.repeat, stereo);
 
-  cv::Mat annotated;
-  if (stereo) {
-    KnownDisparity known;
-    if (in.synthetic) known = {&in.synthetic->disparity_px, in.synthetic->left.width()};
-    annotated = draw_stereo(in.left, *in.right, result.stereo, tables, known);
-  } else {
-    annotated = draw_features(in.left, result.stereo.left, tables);
-  }
-  write_png(options.out, annotated);
-  std::printf("\nwrote %s (%dx%d): %s\n", options.out.c_str(), annotated.cols, annotated.rows,
-              stereo ? "left | right with keypoints and sample match lines; below, matches coloured by disparity"
-                     : "keypoints coloured by level, tick = orientation");
+  std::printf("\n%s\n", write_picture(options.out, in, result, tables).c_str());
   return 0;
 }
 

@@ -106,7 +106,12 @@ std::string features_usage() {
        "then matches left against right), prints keypoints per level, stereo matches and per-stage\n"
        "times, and writes an annotated PNG. With no IMAGE it uses a built-in synthetic stereo pair\n"
        "(640x480, known disparities) and reports how many matches have the right disparity.\n"
+#if PORTA_APPS_HAVE_OPENCV
        "Color images are converted to gray. Any format OpenCV reads (PNG, JPEG, PGM, ...).\n"
+#else
+       "Color images are converted to gray. PNG only: this portaslam was built without OpenCV, and\n"
+       "its picture is a simple one (keypoints as crosses coloured by level).\n"
+#endif
        "\n"
        "Run:\n"
        "  --backend NAME       cpu, cuda, vulkan or opencl (default cpu; see `portaslam backends`)\n"

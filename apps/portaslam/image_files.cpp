@@ -4,9 +4,13 @@
 #include <filesystem>
 #include <fstream>
 
+#if PORTA_APPS_HAVE_OPENCV
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#else
+#include "imageio/png_file.hpp"
+#endif
 
 #include "cli_args.hpp"
 #include "porta/settings.hpp"
@@ -16,6 +20,24 @@ namespace porta::app {
 namespace {
 
 std::string quoted(const std::string& path) { return "'" + path + "'"; }
+
+std::string too_large_message(const std::string& path, int width, int height) {
+  return "image " + quoted(path) + " is " + std::to_string(width) + "x" + std::to_string(height) +
+         ": larger than the engine's limit of " + std::to_string(kMaxImageSide) + " px per side";
+}
+
+// Missing files, folders and unreadable files get the same messages in every build.
+void check_readable(const std::string& path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(status)) throw CliError("cannot open image " + quoted(path) + ": no such file");
+  if (std::filesystem::is_directory(status))
+    throw CliError("cannot open image " + quoted(path) + ": it is a directory, not an image file");
+  if (!std::ifstream(path, std::ios::binary))
+    throw CliError("cannot open image " + quoted(path) + ": " + std::strerror(errno));
+}
+
+#if PORTA_APPS_HAVE_OPENCV
 
 // 16-bit and float images keep their full range through a linear map to [0, 255].
 cv::Mat to_8bit(const cv::Mat& m, std::string& conversion) {
@@ -33,17 +55,14 @@ cv::Mat to_8bit(const cv::Mat& m, std::string& conversion) {
   return out;
 }
 
+#endif
+
 }  // namespace
 
-LoadedImage load_gray_image(const std::string& path) {
-  std::error_code ec;
-  const auto status = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(status)) throw CliError("cannot open image " + quoted(path) + ": no such file");
-  if (std::filesystem::is_directory(status))
-    throw CliError("cannot open image " + quoted(path) + ": it is a directory, not an image file");
-  if (!std::ifstream(path, std::ios::binary))
-    throw CliError("cannot open image " + quoted(path) + ": " + std::strerror(errno));
+#if PORTA_APPS_HAVE_OPENCV
 
+LoadedImage load_gray_image(const std::string& path) {
+  check_readable(path);
   cv::Mat decoded;
   try {
     decoded = cv::imread(path, cv::IMREAD_UNCHANGED);
@@ -54,9 +73,7 @@ LoadedImage load_gray_image(const std::string& path) {
     throw CliError("cannot decode image " + quoted(path) +
                    ": not an image file OpenCV can read (corrupt, truncated, or not an image)");
   if (decoded.cols > kMaxImageSide || decoded.rows > kMaxImageSide)
-    throw CliError("image " + quoted(path) + " is " + std::to_string(decoded.cols) + "x" +
-                   std::to_string(decoded.rows) + ": larger than the engine's limit of " +
-                   std::to_string(kMaxImageSide) + " px per side");
+    throw CliError(too_large_message(path, decoded.cols, decoded.rows));
 
   LoadedImage loaded;
   cv::Mat gray = to_8bit(decoded, loaded.conversion);
@@ -76,5 +93,29 @@ LoadedImage load_gray_image(const std::string& path) {
     std::memcpy(loaded.gray.row(y), gray.ptr<std::uint8_t>(y), static_cast<std::size_t>(gray.cols));
   return loaded;
 }
+
+#else  // without OpenCV: PNG only, through libpng, converted to gray as OpenCV would
+
+LoadedImage load_gray_image(const std::string& path) {
+  check_readable(path);
+  try {
+    io::GrayPng png = io::read_png_gray(path, kMaxImageSide);
+    return {std::move(png.gray), std::move(png.conversion)};
+  } catch (const io::PngError& e) {
+    switch (e.kind()) {
+      case io::PngError::Kind::too_large:
+        throw CliError(too_large_message(path, e.width(), e.height()));
+      case io::PngError::Kind::unreadable:
+        throw CliError("cannot open image " + quoted(path) + ": " + e.what());
+      case io::PngError::Kind::not_png:
+        throw CliError("cannot decode image " + quoted(path) + ": " + e.what() +
+                       "; this portaslam was built without OpenCV and reads PNG files only");
+      default:
+        throw CliError("cannot decode image " + quoted(path) + ": " + e.what());
+    }
+  }
+}
+
+#endif
 
 }  // namespace porta::app

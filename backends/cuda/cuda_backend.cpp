@@ -20,6 +20,10 @@ namespace {
 
 /// Transfers go through the pinned staging buffer in chunks of at most this many bytes.
 constexpr std::size_t kStagingLimit = std::size_t{8} << 20;
+/// Pinned upload arena of a queue: at least kArenaMin, doubled when a segment needs more, at most
+/// kArenaMax unless one chunk needs more (a chunk is at most kStagingLimit).
+constexpr std::size_t kArenaMin = std::size_t{1} << 20;
+constexpr std::size_t kArenaMax = std::size_t{32} << 20;
 constexpr int kDefaultMlptNmax = 8;
 constexpr int kMaxMlptNmax = 1024;
 
@@ -67,6 +71,34 @@ int read_mlpt_nmax() {
                        std::to_string(kMaxMlptNmax) + "] (the rows one culling thread scans; default " +
                        std::to_string(kDefaultMlptNmax) + ")");
   return value;
+}
+
+std::string env_text(const char* name) {
+  const char* env = std::getenv(name);
+  return env == nullptr ? std::string() : std::string(env);
+}
+
+CullVariant read_cull_variant() {
+  const std::string text = env_text("PORTA_CUDA_CULL");
+  return text.empty() ? CullVariant::kMlptTewa : parse_cull_variant(text);
+}
+
+GraphMode read_graph_mode() {
+  const std::string text = lower(env_text("PORTA_CUDA_GRAPHS"));
+  if (text.empty() || text == "1" || text == "on") return GraphMode::kRepeat;
+  if (text == "0" || text == "off") return GraphMode::kOff;
+  if (text == "eager" || text == "2") return GraphMode::kEager;
+  throw BackendError("cuda: PORTA_CUDA_GRAPHS='" + text +
+                     "' is not one of 0 (launch every kernel directly), 1 (default: replay repeated launch "
+                     "sequences as CUDA graphs), eager (capture every sequence at once)");
+}
+
+bool read_streams_enabled() {
+  const std::string text = lower(env_text("PORTA_CUDA_STREAMS"));
+  if (text.empty() || text == "1" || text == "on") return true;
+  if (text == "0" || text == "off") return false;
+  throw BackendError("cuda: PORTA_CUDA_STREAMS='" + text +
+                     "' is not 0 (one stream) or 1 (default: one stream per queue)");
 }
 
 void check_range(const Buffer& b, std::size_t offset, std::size_t bytes, const char* call) {
@@ -128,6 +160,9 @@ std::string list_devices(const std::vector<DeviceEntry>& devices) {
 
 CudaBuffer::~CudaBuffer() {
   if (ptr_ == nullptr) return;
+  // Operations still pending on the backend may use this memory: submit them and let the device
+  // finish before the memory goes (a destructor cannot throw; the backend keeps any error).
+  if (link_ && link_->backend) link_->backend->quiesce_before_free();
   // Free on the device that owns the memory, and leave the thread's current device as it was.
   int current = -1;
   const bool switch_device = cudaGetDevice(&current) == cudaSuccess && current != device_;
@@ -136,8 +171,39 @@ CudaBuffer::~CudaBuffer() {
   if (switch_device) static_cast<void>(cudaSetDevice(current));
 }
 
+const char* cull_variant_name(CullVariant v) {
+  switch (v) {
+    case CullVariant::kMlptTewa: return "mlpt_tewa";
+    case CullVariant::kMlptBlock: return "mlpt_block";
+    case CullVariant::kLog2Block: return "log2_block";
+  }
+  return "?";
+}
+
+CullVariant parse_cull_variant(const std::string& text) {
+  for (CullVariant v : {CullVariant::kMlptTewa, CullVariant::kMlptBlock, CullVariant::kLog2Block})
+    if (lower(text) == cull_variant_name(v)) return v;
+  throw BackendError("cuda: culling variant '" + text +
+                     "' (PORTA_CUDA_CULL) is not one of mlpt_tewa (default), mlpt_block, log2_block");
+}
+
+cudaError_t op_copy_h2d(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream) {
+  return cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream);
+}
+cudaError_t op_copy_d2d(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream) {
+  return cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream);
+}
+cudaError_t op_fill(std::uint8_t* dst, int value, std::size_t bytes, cudaStream_t stream) {
+  return cudaMemsetAsync(dst, value, bytes, stream);
+}
+
 CudaBackend::CudaBackend(const BackendOptions& options)
-    : device_(select_device(options)), mlpt_nmax_(read_mlpt_nmax()) {
+    : device_(select_device(options)),
+      mlpt_nmax_(read_mlpt_nmax()),
+      cull_variant_(read_cull_variant()),
+      graph_mode_(read_graph_mode()),
+      streams_enabled_(read_streams_enabled()),
+      link_(std::make_shared<BackendLink>()) {
   check(cudaSetDevice(device_.index), "cudaSetDevice(" + std::to_string(device_.index) + ")",
         device_.label());
   if (const cudaError_t e = probe_kernel_image(); e != cudaSuccess) {
@@ -147,23 +213,53 @@ CudaBackend::CudaBackend(const BackendOptions& options)
                        "; reconfigure with -DCMAKE_CUDA_ARCHITECTURES=" + std::to_string(device_.major) +
                        std::to_string(device_.minor) + "): " + error_text(e));
   }
-  check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreateWithFlags",
-        device_.label());
-  if (const cudaError_t e = cudaEventCreateWithFlags(&staging_free_, cudaEventDisableTiming);
-      e != cudaSuccess) {
-    static_cast<void>(cudaStreamDestroy(stream_));
-    check(e, "cudaEventCreateWithFlags", device_.label());
+  try {
+    create_resources();
+  } catch (...) {
+    release_resources();
+    throw;
+  }
+  link_->backend = this;
+}
+
+void CudaBackend::create_resources() {
+  for (Queue& q : queues_) {
+    check(cudaStreamCreateWithFlags(&q.stream, cudaStreamNonBlocking), "cudaStreamCreateWithFlags",
+          device_.label());
+    for (cudaEvent_t* e : {&q.entry, &q.done, &q.arena_free})
+      check(cudaEventCreateWithFlags(e, cudaEventDisableTiming), "cudaEventCreateWithFlags", device_.label());
+  }
+}
+
+void CudaBackend::release_resources() noexcept {
+  for (Queue& q : queues_) {
+    q.pending.clear();
+    q.signature.clear();
+    if (q.stream) static_cast<void>(cudaStreamSynchronize(q.stream));
+  }
+  for (CachedGraph& g : graphs_) static_cast<void>(cudaGraphExecDestroy(g.exec));
+  graphs_.clear();
+  for (Queue& q : queues_) {
+    q.scratch.clear();
+    if (q.arena) static_cast<void>(cudaFreeHost(q.arena));
+    if (q.readback) static_cast<void>(cudaFreeHost(q.readback));
+    for (cudaEvent_t e : {q.entry, q.done, q.arena_free})
+      if (e) static_cast<void>(cudaEventDestroy(e));
+    if (q.stream) static_cast<void>(cudaStreamDestroy(q.stream));
+    q = Queue{};
   }
 }
 
 CudaBackend::~CudaBackend() {
   // Destructors cannot throw: errors here are ignored (the memory goes with the process at worst).
   static_cast<void>(cudaSetDevice(device_.index));
-  static_cast<void>(cudaStreamSynchronize(stream_));
-  scratch_.clear();
-  if (staging_) static_cast<void>(cudaFreeHost(staging_));
-  if (staging_free_) static_cast<void>(cudaEventDestroy(staging_free_));
-  if (stream_) static_cast<void>(cudaStreamDestroy(stream_));
+  link_->backend = nullptr;  // buffers that outlive the backend free their memory plainly
+  // Work recorded but never submitted is submitted now, as it would have been without deferral.
+  try {
+    flush_all();
+  } catch (...) {
+  }
+  release_resources();
 }
 
 void CudaBackend::activate() const {
@@ -171,35 +267,106 @@ void CudaBackend::activate() const {
         device_.label());
 }
 
+void CudaBackend::throw_deferred_error() {
+  if (deferred_error_.empty()) return;
+  std::string message;
+  message.swap(deferred_error_);
+  throw BackendError(message);
+}
+
+void CudaBackend::sync_queue(Queue& q, const char* where) {
+  check(cudaStreamSynchronize(q.stream), "cudaStreamSynchronize",
+        std::string(where) + "; the failure may come from any kernel enqueued since the last synchronize()");
+  q.arena_busy = false;  // everything the queue was given has run
+}
+
+void CudaBackend::quiesce_before_free() noexcept {
+  try {
+    activate();
+    flush_all();
+    for (Queue& q : queues_) sync_queue(q, "before freeing a buffer");
+  } catch (const std::exception& e) {
+    if (deferred_error_.empty()) deferred_error_ = e.what();
+  }
+  drop_graphs();
+}
+
+// A graph names device and pinned addresses; once memory is freed, a new allocation may get the
+// same address, and a replay would then match the key but use nodes made for the old allocation
+// (seen on an H100: cudaGraphLaunch failing with cudaErrorInvalidValue, or a crash in the driver).
+// So every free empties the cache. The Frontend frees nothing between frames, so its graphs stay.
+void CudaBackend::drop_graphs() noexcept {
+  for (CachedGraph& g : graphs_) static_cast<void>(cudaGraphExecDestroy(g.exec));  // freed when done
+  if (!graphs_.empty()) ++stats_.cache_drops;
+  graphs_.clear();
+}
+
 std::unique_ptr<Buffer> CudaBackend::allocate(std::size_t bytes) {
   activate();
   void* ptr = nullptr;
   const std::size_t n = bytes > 0 ? bytes : 1;
   check(cudaMalloc(&ptr, n), "cudaMalloc(" + std::to_string(bytes) + " bytes)");
-  auto buffer = std::make_unique<CudaBuffer>(static_cast<std::uint8_t*>(ptr), bytes, device_.index);
-  check(cudaMemsetAsync(ptr, 0, n, stream_), "cudaMemsetAsync(" + std::to_string(n) + " bytes, zero-fill)");
+  auto buffer = std::make_unique<CudaBuffer>(static_cast<std::uint8_t*>(ptr), bytes, device_.index, link_);
+  // Zero-filled before any queue can use it: the fill is waited for here (allocation is rare: the
+  // Frontend and the grow-only buffers allocate at set-up), so no queue needs to wait for another.
+  Queue& q = queues_[current_];
+  check(cudaMemsetAsync(ptr, 0, n, q.stream), "cudaMemsetAsync(" + std::to_string(n) + " bytes, zero-fill)");
+  check(cudaStreamSynchronize(q.stream), "cudaStreamSynchronize", "after the zero-fill of a new buffer");
   return buffer;
 }
 
-void* CudaBackend::staging(std::size_t bytes) {
-  // The staging memory may still be read by the last upload's copy.
-  check(cudaEventSynchronize(staging_free_), "cudaEventSynchronize(staging)");
-  if (bytes > staging_bytes_) {
-    if (staging_) {
-      void* old = staging_;
-      staging_ = nullptr;
-      staging_bytes_ = 0;
-      check(cudaFreeHost(old), "cudaFreeHost(staging)");
+std::uint8_t* CudaBackend::arena_take(std::size_t bytes) {
+  Queue& q = queues_[current_];
+  constexpr std::size_t kAlign = 256;
+  std::size_t at = (q.arena_used + kAlign - 1) / kAlign * kAlign;
+  if (at + bytes > q.arena_bytes) {
+    // Full: submit what uses the arena so far, wait until it has been read, grow if needed.
+    flush(current_);
+    at = 0;
+    if (bytes > q.arena_bytes) {
+      if (q.arena_busy) sync_queue(q, "before growing the upload staging");
+      drop_graphs();  // they may name the old staging memory
+      if (q.arena) {
+        std::uint8_t* old = q.arena;
+        q.arena = nullptr;
+        q.arena_bytes = 0;
+        check(cudaFreeHost(old), "cudaFreeHost(upload staging)");
+      }
+      const std::size_t want = std::max(bytes, std::min(std::max(kArenaMin, 2 * bytes), kArenaMax));
+      void* p = nullptr;
+      check(cudaHostAlloc(&p, want, cudaHostAllocDefault), "cudaHostAlloc(" + std::to_string(want) + " bytes)");
+      q.arena = static_cast<std::uint8_t*>(p);
+      q.arena_bytes = want;
     }
-    check(cudaHostAlloc(&staging_, bytes, cudaHostAllocDefault),
-          "cudaHostAlloc(" + std::to_string(bytes) + " bytes)");
-    staging_bytes_ = bytes;
   }
-  return staging_;
+  if (at == 0 && q.arena_busy) {
+    // A new segment starts at offset 0: the last submitted one may still be copying from there.
+    check(cudaEventSynchronize(q.arena_free), "cudaEventSynchronize(upload staging)");
+    q.arena_busy = false;
+  }
+  q.arena_used = at + bytes;
+  return q.arena + at;
+}
+
+std::uint8_t* CudaBackend::readback(Queue& q, std::size_t bytes) {
+  if (bytes > q.readback_bytes) {
+    if (q.readback) {
+      std::uint8_t* old = q.readback;
+      q.readback = nullptr;
+      q.readback_bytes = 0;
+      check(cudaFreeHost(old), "cudaFreeHost(download staging)");
+    }
+    const std::size_t want = std::max(bytes, std::size_t{64} << 10);
+    void* p = nullptr;
+    check(cudaHostAlloc(&p, want, cudaHostAllocDefault), "cudaHostAlloc(" + std::to_string(want) + " bytes)");
+    q.readback = static_cast<std::uint8_t*>(p);
+    q.readback_bytes = want;
+  }
+  return q.readback;
 }
 
 // The upload returns once the source has been copied to pinned memory; the copy to the device
-// runs on the stream, in order with the kernels.
+// runs on the current queue, in order with its kernels.
 void CudaBackend::upload(Buffer& dst, std::size_t dst_offset, const void* src, std::size_t bytes) {
   check_range(dst, dst_offset, bytes, "upload");
   if (bytes == 0) return;
@@ -207,30 +374,32 @@ void CudaBackend::upload(Buffer& dst, std::size_t dst_offset, const void* src, s
   const auto* from = static_cast<const std::uint8_t*>(src);
   for (std::size_t done = 0; done < bytes;) {
     const std::size_t chunk = std::min(bytes - done, kStagingLimit);
-    void* pinned = staging(chunk);
+    std::uint8_t* pinned = arena_take(chunk);
     std::memcpy(pinned, from + done, chunk);
-    check(cudaMemcpyAsync(dev<std::uint8_t>(dst, static_cast<std::int64_t>(dst_offset + done)), pinned, chunk,
-                          cudaMemcpyHostToDevice, stream_),
-          "cudaMemcpyAsync(" + std::to_string(chunk) + " bytes, host to device)");
-    check(cudaEventRecord(staging_free_, stream_), "cudaEventRecord(staging)");
+    enqueue<&op_copy_h2d>("upload (host to device copy)",
+                          dev<std::uint8_t>(dst, static_cast<std::int64_t>(dst_offset + done)),
+                          static_cast<const std::uint8_t*>(pinned), chunk);
     done += chunk;
   }
 }
 
-// Waits for every kernel before it: errors of earlier asynchronous work surface here.
+// Waits for every operation before it on the current queue: errors of earlier asynchronous work
+// surface here.
 void CudaBackend::download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) {
   check_range(src, src_offset, bytes, "download");
+  throw_deferred_error();
   if (bytes == 0) return;
   activate();
+  flush(current_);
+  Queue& q = queues_[current_];
   auto* to = static_cast<std::uint8_t*>(dst);
   for (std::size_t done = 0; done < bytes;) {
     const std::size_t chunk = std::min(bytes - done, kStagingLimit);
-    void* pinned = staging(chunk);
+    std::uint8_t* pinned = readback(q, chunk);
     check(cudaMemcpyAsync(pinned, dev<std::uint8_t>(src, static_cast<std::int64_t>(src_offset + done)), chunk,
-                          cudaMemcpyDeviceToHost, stream_),
+                          cudaMemcpyDeviceToHost, q.stream),
           "cudaMemcpyAsync(" + std::to_string(chunk) + " bytes, device to host)");
-    check(cudaStreamSynchronize(stream_), "cudaStreamSynchronize",
-          "in download(); the failure may come from any kernel enqueued since the last synchronize()");
+    sync_queue(q, "in download()");
     std::memcpy(to + done, pinned, chunk);
     done += chunk;
   }
@@ -240,23 +409,209 @@ void CudaBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::
   check_range(dst, offset, bytes, "fill");
   if (bytes == 0) return;
   activate();
-  check(cudaMemsetAsync(dev<std::uint8_t>(dst, static_cast<std::int64_t>(offset)), value, bytes, stream_),
-        "cudaMemsetAsync(" + std::to_string(bytes) + " bytes)");
+  enqueue<&op_fill>("fill (cudaMemsetAsync)", dev<std::uint8_t>(dst, static_cast<std::int64_t>(offset)),
+                    static_cast<int>(value), bytes);
 }
 
 void CudaBackend::synchronize() {
+  throw_deferred_error();
   activate();
-  check(cudaStreamSynchronize(stream_), "cudaStreamSynchronize",
-        "the failure may come from any kernel enqueued since the last synchronize()");
+  flush_all();
+  for (Queue& q : queues_) sync_queue(q, "in synchronize()");
+}
+
+void CudaBackend::use_queue(int queue) {
+  if (queue < 0 || queue >= kQueues)
+    throw BackendError("cuda: use_queue(" + std::to_string(queue) + "): queues are 0 and 1");
+  if (!streams_enabled_) return;
+  activate();
+  // The queue being left starts running while the host records the next one.
+  flush(current_);
+  Queue& q = queues_[static_cast<std::size_t>(queue)];
+  flush(queue);
+  // Entry mark: what this queue had been given so far; the other queue waits for it when it is
+  // next selected (see the header).
+  check(cudaEventRecord(q.entry, q.stream), "cudaEventRecord(queue entry)");
+  q.entry_gen = ++entry_clock_;
+  for (int p = 0; p < kQueues; ++p) {
+    if (p == queue) continue;
+    const Queue& other = queues_[static_cast<std::size_t>(p)];
+    if (other.entry_gen > q.waited[static_cast<std::size_t>(p)]) {
+      check(cudaStreamWaitEvent(q.stream, other.entry, 0), "cudaStreamWaitEvent(queue entry)");
+      q.waited[static_cast<std::size_t>(p)] = other.entry_gen;
+      ++stats_.queue_waits;
+    }
+  }
+  current_ = queue;
+}
+
+void CudaBackend::join_queues() {
+  if (!streams_enabled_) return;
+  activate();
+  flush_all();
+  Queue& q = queues_[current_];
+  for (int p = 0; p < kQueues; ++p) {
+    if (p == current_) continue;
+    Queue& other = queues_[static_cast<std::size_t>(p)];
+    check(cudaEventRecord(other.done, other.stream), "cudaEventRecord(join)");
+    check(cudaStreamWaitEvent(q.stream, other.done, 0), "cudaStreamWaitEvent(join)");
+    ++stats_.queue_waits;
+  }
+}
+
+void CudaBackend::set_graph_mode(GraphMode mode) {
+  activate();
+  flush_all();
+  graph_mode_ = mode;
+}
+
+void CudaBackend::set_streams_enabled(bool on) {
+  synchronize();
+  streams_enabled_ = on;
+  if (!on) current_ = 0;
 }
 
 Buffer& CudaBackend::scratch(const std::string& name, std::size_t bytes) {
-  auto& slot = scratch_[name];
+  Queue& q = queues_[current_];
+  auto& slot = q.scratch[name];
   if (!slot || slot->size_bytes() < bytes) {
-    slot.reset();  // cudaFree waits for the kernels that may still use the old buffer
+    if (slot) {
+      // Pending and running operations of this queue may still use the old memory.
+      flush(current_);
+      sync_queue(q, "before growing scratch memory");
+      slot.reset();
+    }
     slot = allocate(bytes);
   }
   return *slot;
+}
+
+void CudaBackend::flush_all() {
+  for (int q = 0; q < kQueues; ++q) flush(q);
+}
+
+void CudaBackend::run_direct(Queue& q, const std::vector<Op>& ops) {
+  for (const Op& op : ops) {
+    const cudaError_t e = op.run(q.stream);
+    if (e != cudaSuccess) check(e, std::string(op.name) + " launch");
+  }
+}
+
+namespace {
+
+// A 64-bit hash of a signature (a multiple of 8 bytes): for lookup only, equality is checked on
+// the bytes.
+std::uint64_t hash_signature(const std::vector<std::uint8_t>& sig) {
+  std::uint64_t h = 0x9E3779B97F4A7C15ull ^ sig.size();
+  for (std::size_t i = 0; i + 8 <= sig.size(); i += 8) {
+    std::uint64_t w = 0;
+    std::memcpy(&w, sig.data() + i, 8);
+    h ^= w;
+    h *= 0xFF51AFD7ED558CCDull;
+    h ^= h >> 29;
+  }
+  return h;
+}
+
+}  // namespace
+
+bool CudaBackend::capture_and_launch(Queue& q, const std::vector<Op>& ops, std::vector<std::uint8_t>&& sig,
+                                     std::uint64_t hash) {
+  auto give_up = [&] {
+    static_cast<void>(cudaGetLastError());
+    uncapturable_.insert(hash);
+    ++stats_.capture_failures;
+    return false;
+  };
+  if (cudaStreamBeginCapture(q.stream, cudaStreamCaptureModeThreadLocal) != cudaSuccess) return give_up();
+  cudaError_t launch_status = cudaSuccess;
+  for (const Op& op : ops) {
+    launch_status = op.run(q.stream);
+    if (launch_status != cudaSuccess) break;
+  }
+  cudaGraph_t graph = nullptr;
+  const cudaError_t end_status = cudaStreamEndCapture(q.stream, &graph);
+  if (launch_status != cudaSuccess || end_status != cudaSuccess || graph == nullptr) {
+    if (graph) static_cast<void>(cudaGraphDestroy(graph));
+    return give_up();  // launched directly by the caller, which reports a genuine launch error
+  }
+  cudaGraphExec_t exec = nullptr;
+  const cudaError_t inst_status = cudaGraphInstantiateWithFlags(&exec, graph, 0);
+  static_cast<void>(cudaGraphDestroy(graph));
+  if (inst_status != cudaSuccess) return give_up();
+  if (const cudaError_t e = cudaGraphLaunch(exec, q.stream); e != cudaSuccess) {
+    static_cast<void>(cudaGraphExecDestroy(exec));
+    check(e, "cudaGraphLaunch", "a newly captured segment");
+  }
+  ++stats_.graph_captures;
+  if (graphs_.size() >= kMaxGraphs) {
+    // The least recently used one goes; an executable graph still running is freed when it ends.
+    auto oldest = std::min_element(graphs_.begin(), graphs_.end(), [](const CachedGraph& a, const CachedGraph& b) {
+      return a.last_use < b.last_use;
+    });
+    static_cast<void>(cudaGraphExecDestroy(oldest->exec));
+    graphs_.erase(oldest);
+  }
+  graphs_.push_back(CachedGraph{hash, std::move(sig), exec, ++graph_clock_});
+  return true;
+}
+
+void CudaBackend::flush(int index) {
+  Queue& q = queues_[static_cast<std::size_t>(index)];
+  if (q.pending.empty()) return;
+  // Take the segment first: the queue is clean whatever happens below.
+  std::vector<Op> ops;
+  ops.swap(q.pending);
+  std::vector<std::uint8_t> sig;
+  sig.swap(q.signature);
+  const bool used_arena = q.arena_used > 0;
+  q.arena_used = 0;
+  ++stats_.segments;
+  auto mark_arena = [&] {
+    if (!used_arena) return;
+    q.arena_busy = true;
+    check(cudaEventRecord(q.arena_free, q.stream), "cudaEventRecord(upload staging)");
+  };
+  try {
+    bool launched = false;
+    if (graph_mode_ != GraphMode::kOff && ops.size() >= 2) {
+      const std::uint64_t hash = hash_signature(sig);
+      for (CachedGraph& g : graphs_) {
+        if (g.hash == hash && g.signature == sig) {
+          g.last_use = ++graph_clock_;
+          check(cudaGraphLaunch(g.exec, q.stream), "cudaGraphLaunch", "a cached segment");
+          ++stats_.graph_replays;
+          launched = true;
+          break;
+        }
+      }
+      if (!launched && uncapturable_.count(hash) == 0) {
+        if (graph_mode_ == GraphMode::kEager || seen_.count(hash) != 0) {
+          seen_.erase(hash);
+          launched = capture_and_launch(q, ops, std::move(sig), hash);
+        } else {
+          if (seen_.size() >= kMaxSeen) seen_.clear();
+          seen_.insert(hash);
+        }
+      }
+    }
+    if (!launched) {
+      run_direct(q, ops);
+      ++stats_.direct_segments;
+    }
+  } catch (...) {
+    try {
+      mark_arena();
+    } catch (...) {
+    }
+    throw;
+  }
+  mark_arena();
+  // Keep the vectors' storage for the next segment (the Frontend records the same one per frame).
+  ops.clear();
+  if (q.pending.empty()) q.pending.swap(ops);
+  sig.clear();
+  if (q.signature.empty()) q.signature.swap(sig);
 }
 
 }  // namespace porta::cuda

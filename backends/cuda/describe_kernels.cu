@@ -115,11 +115,11 @@ __global__ void __launch_bounds__(32 * kWarpsPerBlock)
 }  // namespace
 
 cudaError_t launch_orient(const std::uint8_t* pyramid, const DevLevels& layout, DevKeypoint* keypoints,
-                          DevCount count, const int umax[16], const std::int32_t* boundaries, int bins,
+                          DevCount count, DevUmax umax, const std::int32_t* boundaries, int bins,
                           cudaStream_t stream) {
   if (count.capacity <= 0) return cudaSuccess;
   Umax u{};
-  for (int k = 0; k <= kOrientRadius; ++k) u.v[k] = umax[k];
+  for (int k = 0; k <= kOrientRadius; ++k) u.v[k] = umax.v[k];
   orient_kernel<<<blocks_for(count.capacity, kWarpsPerBlock), 32 * kWarpsPerBlock, 0, stream>>>(
       pyramid, layout, keypoints, count, u, boundaries, bins);
   return cudaGetLastError();

@@ -10,7 +10,6 @@
 namespace porta::cuda {
 
 using detail::fail;
-using detail::launched;
 
 namespace {
 
@@ -28,12 +27,12 @@ void CudaBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, Dev
   check_bins("orient", bins);
   if (boundaries.size_bytes() < static_cast<std::size_t>(bins) * 2 * sizeof(std::int32_t))
     fail("orient", "the boundary table holds fewer than " + std::to_string(bins) + " (x, y) pairs");
-  int u[kOrientationRadius + 1] = {};
+  DevUmax u{};
   for (int dy = 0; dy <= kOrientationRadius; ++dy) {
     if (umax[static_cast<std::size_t>(dy)] < 0 || umax[static_cast<std::size_t>(dy)] > kOrientationRadius)
       fail("orient", "umax[" + std::to_string(dy) +
                          "] = " + std::to_string(umax[static_cast<std::size_t>(dy)]) + " is outside [0, 15]");
-    u[dy] = umax[static_cast<std::size_t>(dy)];
+    u.v[dy] = umax[static_cast<std::size_t>(dy)];
   }
   if (layout.element_bytes != 1) fail("orient", "the pyramid must hold 8-bit pixels");
   const DevLevels levels = detail::to_dev(layout, "orient");
@@ -42,9 +41,8 @@ void CudaBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, Dev
   const int capacity = detail::usable_capacity(list, {{list.items, sizeof(Keypoint)}});
   if (capacity == 0) return;
   activate();
-  launched(launch_orient(dev<std::uint8_t>(pyramid), levels, dev<DevKeypoint>(*keypoints.items),
-                         detail::count_of(list, capacity), u, dev<std::int32_t>(boundaries), bins, stream()),
-           "orient");
+  enqueue<&launch_orient>("orient", dev<std::uint8_t>(pyramid), levels, dev<DevKeypoint>(*keypoints.items),
+                          detail::count_of(list, capacity), u, dev<std::int32_t>(boundaries), bins);
 }
 
 // §3.8. As for orient, a keypoint the cpu backend refuses (bad level, closer than 18 px to the
@@ -74,10 +72,9 @@ void CudaBackend::orb_describe(const Buffer& blurred, const PyramidLayout& layou
   }
   if (capacity == 0) return;
   activate();
-  launched(launch_orb_describe(dev<std::uint8_t>(blurred), levels, dev<DevKeypoint>(*keypoints.items),
-                               detail::count_of(keypoints, capacity), dev<std::int8_t>(pattern), bins,
-                               dev<std::uint8_t>(descriptors), stream()),
-           "orb_describe");
+  enqueue<&launch_orb_describe>("orb_describe", dev<std::uint8_t>(blurred), levels,
+                                dev<DevKeypoint>(*keypoints.items), detail::count_of(keypoints, capacity),
+                                dev<std::int8_t>(pattern), bins, dev<std::uint8_t>(descriptors));
 }
 
 }  // namespace porta::cuda

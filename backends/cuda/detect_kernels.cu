@@ -1,6 +1,7 @@
 // Detection kernels of the CUDA backend: FAST corner response, per-cell culling (MLPT + TEWA),
 // pyramidal feature aggregation and the canonical compaction (DESIGN.md §3.3-3.5). They
 // reproduce the bytes of the cpu backend (backends/cpu/detect_kernels.cpp).
+#include <cstddef>
 #include <cstdint>
 
 #include "cuda/device_common.cuh"
@@ -114,6 +115,51 @@ __global__ void __launch_bounds__(kCullBlock)
       kp.level = static_cast<std::uint8_t>(n);
     }
     store_keypoint(cells, L.first_cell + first + tid, kp);
+  }
+}
+
+// §3.4, the baseline of the culling ablation (CullLaunch::variant == kCullLog2Block): one block of
+// block_threads threads per cell, all levels in one launch. Thread t takes the cell's pixels t,
+// t + block_threads, ... in row-major order, then a shared-memory tree halves the candidates in
+// log2(block_threads) steps. Small cells leave most of the block idle, which is what MLPT and TEWA
+// avoid; the key order makes the result identical.
+__global__ void __launch_bounds__(1024)
+    cull_log2_kernel(const std::uint8_t* __restrict__ responses, CullLaunch p, DevKeypoint* __restrict__ cells) {
+  extern __shared__ unsigned long long tree[];  // block_threads keys
+  const int n = level_of_block(p.first_block, p.count, static_cast<int>(blockIdx.x));
+  if (n < 0) return;  // uniform over the block
+  const CullLevel& L = p.level[n];
+  const int tid = static_cast<int>(threadIdx.x);
+  const int threads = static_cast<int>(blockDim.x);
+  const int cell = static_cast<int>(blockIdx.x) - p.first_block[n];
+  const int cell_y = cell / L.cols, cell_x = cell - cell_y * L.cols;
+  const int x0 = cell_x * L.cell_w, x1 = min(x0 + L.cell_w, L.plane.width);
+  const int y0 = cell_y * L.cell_h, y1 = min(y0 + L.cell_h, L.plane.height);
+  const int w = x1 - x0, h = y1 - y0;
+  const int pixels = w > 0 && h > 0 ? w * h : 0;
+  const std::uint16_t* level = reinterpret_cast<const std::uint16_t*>(responses + L.plane.offset_bytes);
+  unsigned long long key = 0;
+  for (int i = tid; i < pixels; i += threads) {
+    const int y = y0 + i / w, x = x0 + i % w;
+    const unsigned r = __ldg(level + static_cast<long long>(y) * L.plane.pitch + x);
+    if (r != 0) key = max(key, cull_key(r, y, x));
+  }
+  tree[tid] = key;
+  __syncthreads();
+  for (int half = threads >> 1; half > 0; half >>= 1) {
+    if (tid < half) tree[tid] = max(tree[tid], tree[tid + half]);
+    __syncthreads();
+  }
+  if (tid == 0) {
+    const unsigned long long k = tree[0];
+    DevKeypoint kp{0, 0, 0, 0, 0};
+    if (k != 0) {
+      kp.x = static_cast<std::uint16_t>(0xFFFFu - static_cast<unsigned>(k & 0xFFFFu));
+      kp.y = static_cast<std::uint16_t>(0xFFFFu - static_cast<unsigned>((k >> 16) & 0xFFFFu));
+      kp.response = static_cast<std::uint16_t>(k >> 32);
+      kp.level = static_cast<std::uint8_t>(n);
+    }
+    store_keypoint(cells, L.first_cell + cell, kp);
   }
 }
 
@@ -298,7 +344,15 @@ cudaError_t launch_cull_cells(const std::uint8_t* responses, const CullLaunch& p
                               cudaStream_t stream) {
   const int blocks = p.first_block[p.count];
   if (blocks <= 0) return cudaSuccess;
-  cull_cells_kernel<<<static_cast<unsigned>(blocks), kCullBlock, 0, stream>>>(responses, p, cells);
+  if (p.variant == kCullLog2Block) {
+    if (p.block_threads < 32 || p.block_threads > 1024 || (p.block_threads & (p.block_threads - 1)) != 0)
+      return cudaErrorInvalidValue;
+    cull_log2_kernel<<<static_cast<unsigned>(blocks), static_cast<unsigned>(p.block_threads),
+                       sizeof(unsigned long long) * static_cast<std::size_t>(p.block_threads), stream>>>(
+        responses, p, cells);
+  } else {
+    cull_cells_kernel<<<static_cast<unsigned>(blocks), kCullBlock, 0, stream>>>(responses, p, cells);
+  }
   return cudaGetLastError();
 }
 

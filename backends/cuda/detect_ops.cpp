@@ -8,13 +8,13 @@
 #include <string>
 #include <vector>
 
+#include "cuda/cull_plan.hpp"
 #include "cuda/host_checks.hpp"
 #include "porta/tables.hpp"
 
 namespace porta::cuda {
 
 using detail::fail;
-using detail::launched;
 using detail::require_bytes;
 using detail::require_plane_inside;
 
@@ -51,6 +51,31 @@ CullLevel plan_cull_level(const Plane& plane, const LevelCells& grid, int nmax) 
 
 }  // namespace
 
+CullLaunch plan_cull(const PyramidLayout& response_layout, const CellLayout& cell_layout, int nmax,
+                     CullVariant variant) {
+  CullLaunch launch{};
+  launch.count = std::min(response_layout.num_levels(), static_cast<int>(cell_layout.levels.size()));
+  launch.variant = variant == CullVariant::kMlptTewa    ? kCullMlptTewa
+                   : variant == CullVariant::kMlptBlock ? kCullMlptBlock
+                                                        : kCullLog2Block;
+  std::int64_t blocks = 0;
+  std::int64_t largest_cell = 1;
+  for (int n = 0; n < launch.count; ++n) {
+    const LevelCells& grid = cell_layout.levels[static_cast<std::size_t>(n)];
+    launch.level[n] = plan_cull_level(response_layout.levels[static_cast<std::size_t>(n)], grid, nmax);
+    if (variant != CullVariant::kMlptTewa) launch.level[n].cells_per_block = 1;
+    launch.first_block[n] = static_cast<int>(blocks);
+    blocks += ceil_div(grid.cols * grid.rows, launch.level[n].cells_per_block);
+    largest_cell = std::max<std::int64_t>(largest_cell, static_cast<std::int64_t>(std::max(grid.cell_w, 1)) *
+                                                            std::max(grid.cell_h, 1));
+  }
+  launch.first_block[launch.count] = static_cast<int>(blocks);
+  int threads = 32;
+  while (threads < 1024 && threads < largest_cell) threads *= 2;
+  launch.block_threads = variant == CullVariant::kLog2Block ? threads : kCullBlock;
+  return launch;
+}
+
 // §3.3: one launch over every pixel of every level.
 void CudaBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                            Buffer& responses, const PyramidLayout& response_layout,
@@ -75,12 +100,12 @@ void CudaBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, c
   launch.edge = params.edge;
   if (launch.src.first_block[launch.src.count] == 0) return;
   activate();
-  launched(launch_fast_crf(dev<std::uint8_t>(pyramid), dev<std::uint8_t>(lut), dev<std::uint8_t>(responses),
-                           launch, stream()),
-           "fast_crf");
+  enqueue<&launch_fast_crf>("fast_crf", dev<std::uint8_t>(pyramid), dev<std::uint8_t>(lut),
+                            dev<std::uint8_t>(responses), launch);
 }
 
-// §3.4: one launch over the cells of every level (MLPT + TEWA, see plan_cull_level).
+// §3.4: one launch over the cells of every level (MLPT + TEWA by default, see plan_cull_level;
+// $PORTA_CUDA_CULL selects the ablation variants of plan_cull).
 void CudaBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                              const CellLayout& cell_layout, Buffer& cells) {
   if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
@@ -102,20 +127,10 @@ void CudaBackend::cull_cells(const Buffer& responses, const PyramidLayout& respo
                 "the cell array");
   if (end_cell > std::numeric_limits<int>::max()) fail("cull_cells", "more than 2^31 cells");
 
-  CullLaunch launch{};
-  launch.count = response_layout.num_levels();
-  std::int64_t blocks = 0;
-  for (int n = 0; n < launch.count; ++n) {
-    const LevelCells& grid = cell_layout.levels[static_cast<std::size_t>(n)];
-    launch.level[n] = plan_cull_level(response_layout.levels[static_cast<std::size_t>(n)], grid, mlpt_nmax());
-    launch.first_block[n] = static_cast<int>(blocks);
-    blocks += ceil_div(grid.cols * grid.rows, launch.level[n].cells_per_block);
-  }
-  launch.first_block[launch.count] = static_cast<int>(blocks);
-  if (blocks == 0) return;
+  const CullLaunch launch = plan_cull(response_layout, cell_layout, mlpt_nmax(), cull_variant());
+  if (launch.first_block[launch.count] == 0) return;
   activate();
-  launched(launch_cull_cells(dev<std::uint8_t>(responses), launch, dev<DevKeypoint>(cells), stream()),
-           "cull_cells");
+  enqueue<&launch_cull_cells>("cull_cells", dev<std::uint8_t>(responses), launch, dev<DevKeypoint>(cells));
 }
 
 // §3.5: three launches over the cells (accumulate, decide, apply) with two level-0 sized scratch
@@ -151,9 +166,8 @@ void CudaBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const
   Buffer& sum_map = scratch("pfa.sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa.levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa.rejected", static_cast<std::size_t>(total));
-  launched(launch_pfa_filter(dev<DevKeypoint>(cells), launch, dev<std::uint32_t>(sum_map),
-                             dev<std::uint32_t>(level_map), dev<std::uint8_t>(rejected), stream()),
-           "pfa_filter");
+  enqueue<&launch_pfa_filter>("pfa_filter", dev<DevKeypoint>(cells), launch, dev<std::uint32_t>(sum_map),
+                              dev<std::uint32_t>(level_map), dev<std::uint8_t>(rejected));
 }
 
 // Canonical compaction: per-block counts, a one-block scan that also writes the count, then a
@@ -176,11 +190,11 @@ void CudaBackend::compact_keypoints(const Buffer& cells, int total_cells, Device
   activate();
   const int blocks = (total + kCompactCellsPerBlock - 1) / kCompactCellsPerBlock;
   Buffer& block_scratch = scratch("compact.blocks", static_cast<std::size_t>(std::max(blocks, 1)) * 4);
-  launched(launch_compact(dev<DevKeypoint>(cells), total, out.items ? dev<DevKeypoint>(*out.items) : nullptr,
-                          static_cast<std::uint32_t>(capacity),
-                          dev<std::uint8_t>(*out.count, out.count_offset_bytes),
-                          dev<std::uint32_t>(block_scratch), stream()),
-           "compact_keypoints");
+  enqueue<&launch_compact>("compact_keypoints", static_cast<const DevKeypoint*>(dev<DevKeypoint>(cells)), total,
+                           out.items ? dev<DevKeypoint>(*out.items) : static_cast<DevKeypoint*>(nullptr),
+                           static_cast<std::uint32_t>(capacity),
+                           dev<std::uint8_t>(*out.count, out.count_offset_bytes),
+                           dev<std::uint32_t>(block_scratch));
 }
 
 }  // namespace porta::cuda

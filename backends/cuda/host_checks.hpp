@@ -104,8 +104,8 @@ inline int usable_capacity(const ConstDeviceList& list,
 
 /// The device view of a list's length.
 inline DevCount count_of(const ConstDeviceList& list, int capacity) {
-  if (capacity <= 0 || list.count == nullptr) return DevCount{nullptr, 0};
-  return DevCount{dev<std::uint8_t>(*list.count, list.count_offset_bytes), capacity};
+  if (capacity <= 0 || list.count == nullptr) return DevCount{nullptr, 0, 0};
+  return DevCount{dev<std::uint8_t>(*list.count, list.count_offset_bytes), capacity, 0};
 }
 
 }  // namespace porta::cuda::detail

@@ -138,11 +138,11 @@ cudaError_t launch_resize_level(std::uint8_t* pyramid, DevPlane above, DevPlane 
 }
 
 cudaError_t launch_blur(const std::uint8_t* src, std::uint8_t* dst, const DevTiledLevels& levels,
-                        const std::int32_t taps[7], cudaStream_t stream) {
+                        DevBlurTaps taps, cudaStream_t stream) {
   const int blocks = levels.first_block[levels.count];
   if (blocks <= 0) return cudaSuccess;
   BlurTaps t{};
-  for (int k = 0; k < 7; ++k) t.t[k] = taps[k];
+  for (int k = 0; k < 7; ++k) t.t[k] = taps.t[k];
   blur_kernel<<<static_cast<unsigned>(blocks), dim3(kTileW, kTileH), 0, stream>>>(src, dst, levels, t);
   return cudaGetLastError();
 }

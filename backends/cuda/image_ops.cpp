@@ -10,7 +10,6 @@
 namespace porta::cuda {
 
 using detail::fail;
-using detail::launched;
 using detail::require_bytes;
 using detail::require_plane_inside;
 
@@ -26,9 +25,8 @@ void CudaBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffe
   // An empty source reads 0 everywhere: the kernel's bounds tests see width or height 0.
   DevPlane sp = detail::to_dev(src_plane);
   if (src_plane.width <= 0 || src_plane.height <= 0) sp = DevPlane{0, 0, 0, 0, 0};
-  launched(launch_rectify(dev<std::uint8_t>(src), sp, dev<std::int32_t>(map), dev<std::uint8_t>(dst),
-                          detail::to_dev(dst_plane), stream()),
-           "rectify");
+  enqueue<&launch_rectify>("rectify", dev<std::uint8_t>(src), sp, dev<std::int32_t>(map), dev<std::uint8_t>(dst),
+                           detail::to_dev(dst_plane));
 }
 
 // §3.2: one launch per level, in order (each level reads the one above; the stream is in order).
@@ -54,10 +52,9 @@ void CudaBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, co
     const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
     const Plane& level = layout.levels[static_cast<std::size_t>(n)];
     if (level.width <= 0 || level.height <= 0) continue;
-    launched(launch_resize_level(
-                 dev<std::uint8_t>(pyramid), detail::to_dev(above), detail::to_dev(level),
-                 dev<std::int32_t>(resize_table) + level_offset[static_cast<std::size_t>(n - 1)], stream()),
-             "build_pyramid");
+    enqueue<&launch_resize_level>("build_pyramid", dev<std::uint8_t>(pyramid), detail::to_dev(above),
+                                  detail::to_dev(level),
+                                  dev<std::int32_t>(resize_table) + level_offset[static_cast<std::size_t>(n - 1)]);
   }
 }
 
@@ -84,14 +81,14 @@ void CudaBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffe
   const Buffer* source = &pyramid;
   if (&pyramid == &blurred) {
     Buffer& copy = scratch("blur.source", pyramid.size_bytes());
-    check(cudaMemcpyAsync(dev<std::uint8_t>(copy), dev<std::uint8_t>(pyramid), pyramid.size_bytes(),
-                          cudaMemcpyDeviceToDevice, stream()),
-          "cudaMemcpyAsync(" + std::to_string(pyramid.size_bytes()) + " bytes, device to device)",
-          "blur in place");
+    enqueue<&op_copy_d2d>("blur (in-place source copy)", dev<std::uint8_t>(copy),
+                          static_cast<const std::uint8_t*>(dev<std::uint8_t>(pyramid)), pyramid.size_bytes());
     source = &copy;
   }
-  launched(launch_blur(dev<std::uint8_t>(*source), dev<std::uint8_t>(blurred), tiles, taps.data(), stream()),
-           "blur");
+  DevBlurTaps t{};
+  for (int k = 0; k < 7; ++k) t.t[k] = taps[static_cast<std::size_t>(k)];
+  enqueue<&launch_blur>("blur", static_cast<const std::uint8_t*>(dev<std::uint8_t>(*source)),
+                        dev<std::uint8_t>(blurred), tiles, t);
 }
 
 }  // namespace porta::cuda

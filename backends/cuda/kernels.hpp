@@ -2,6 +2,11 @@
 // structs passed to kernels by value and one launcher per kernel contract. Deliberately C++17 and
 // free of engine headers, so that the .cu files build with older nvcc (Jetson's CUDA 11.4) and
 // compile quickly. Launchers enqueue on `stream` and return the launch status; they never wait.
+//
+// Launchers are pure functions of their arguments (no host state), so the backend may defer them,
+// replay them in a CUDA graph, and key that graph by the bytes of the arguments: every argument
+// struct here therefore has no implicit padding (explicit `pad` members instead, zero), which the
+// host checks with std::has_unique_object_representations.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -36,6 +41,7 @@ static_assert(sizeof(DevKeypoint) == 8, "DevKeypoint must mirror porta::Keypoint
 struct DevCount {
   const std::uint8_t* bytes;
   int capacity;
+  int pad;  ///< 0 (no implicit padding: see the top of this file)
 };
 
 /// Levels of a pyramid; blocks of a launch over all of them are assigned level by level:
@@ -53,6 +59,11 @@ inline constexpr int kTileW = 32;  ///< tile of the per-pixel kernels: 32 x 8 pi
 inline constexpr int kTileH = 8;
 inline constexpr int kTileThreads = kTileW * kTileH;
 
+/// The 7 blur taps (sum 256).
+struct DevBlurTaps {
+  std::int32_t t[7];
+};
+
 cudaError_t launch_rectify(const std::uint8_t* src, DevPlane src_plane, const std::int32_t* map,
                            std::uint8_t* dst, DevPlane dst_plane, cudaStream_t stream);
 /// One level from the one above; `table` points at the level's columns/rows of the resize table.
@@ -60,7 +71,7 @@ cudaError_t launch_resize_level(std::uint8_t* pyramid, DevPlane above, DevPlane 
                                 const std::int32_t* table, cudaStream_t stream);
 /// All levels in one launch (tiles of kTileW x kTileH).
 cudaError_t launch_blur(const std::uint8_t* src, std::uint8_t* dst, const DevTiledLevels& levels,
-                        const std::int32_t taps[7], cudaStream_t stream);
+                        DevBlurTaps taps, cudaStream_t stream);
 
 // ---- detect_kernels.cu ---------------------------------------------------------------------------
 
@@ -77,6 +88,13 @@ cudaError_t launch_fast_crf(const std::uint8_t* pyramid, const std::uint8_t* lut
 
 inline constexpr int kCullBlock = 128;  ///< threads of a culling block (TEWA packs cells into it)
 
+/// How the culling launch splits the work (CullLaunch::variant); all give the same bytes.
+inline constexpr int kCullMlptTewa = 0;   ///< MLPT threads, TEWA: several cells per 128-thread block
+inline constexpr int kCullMlptBlock = 1;  ///< MLPT threads, one cell per 128-thread block
+inline constexpr int kCullLog2Block = 2;  ///< one cell per block of block_threads threads, each
+                                          ///< thread strides over the cell's pixels, then a
+                                          ///< shared-memory log2 tree reduction
+
 /// Culling of one level: MLPT (each thread scans up to band_rows rows of lanes_x-strided columns
 /// of one cell) and TEWA (cells_per_block cells of cell_threads threads share a block).
 struct CullLevel {
@@ -86,11 +104,14 @@ struct CullLevel {
   int band_rows;        ///< rows per thread
   int cell_threads;     ///< lanes_x * bands
   int cells_per_block;  ///< kCullBlock / cell_threads
+  int pad;              ///< 0
 };
 struct CullLaunch {
   CullLevel level[kMaxLevels];
   int first_block[kMaxLevels + 1];
   int count;
+  int variant;        ///< kCullMlptTewa, kCullMlptBlock or kCullLog2Block
+  int block_threads;  ///< kCullLog2Block: threads per block, a power of two in [32, 1024]
 };
 cudaError_t launch_cull_cells(const std::uint8_t* responses, const CullLaunch& p, DevKeypoint* cells,
                               cudaStream_t stream);
@@ -119,9 +140,14 @@ cudaError_t launch_compact(const DevKeypoint* cells, int total_cells, DevKeypoin
 struct DevLevels {
   DevPlane level[kMaxLevels];
   int count;
+  int pad;  ///< 0
+};
+/// umax[dy] of the orientation patch (build_orientation_umax()).
+struct DevUmax {
+  int v[16];
 };
 cudaError_t launch_orient(const std::uint8_t* pyramid, const DevLevels& layout, DevKeypoint* keypoints,
-                          DevCount count, const int umax[16], const std::int32_t* boundaries, int bins,
+                          DevCount count, DevUmax umax, const std::int32_t* boundaries, int bins,
                           cudaStream_t stream);
 cudaError_t launch_orb_describe(const std::uint8_t* blurred, const DevLevels& layout,
                                 const DevKeypoint* keypoints, DevCount count, const std::int8_t* pattern,
@@ -141,6 +167,7 @@ struct StereoLaunch {
   int min_disparity_q8;
   int max_disparity_q8;
   int max_hamming;
+  int pad;  ///< 0
 };
 /// Candidates, then median and rejection; `sads` holds one int32 per left slot, `histogram`
 /// kHistogramWords uint32 (cleared here).

@@ -10,7 +10,6 @@
 namespace porta::cuda {
 
 using detail::fail;
-using detail::launched;
 
 // §3.9 in two launches: candidates (steps a-e, a warp per left keypoint scanning the right list,
 // each accepted SAD counted in a histogram), then one block for the median and the rejection.
@@ -44,15 +43,13 @@ void CudaBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right_p
   Buffer& sads = scratch("stereo_match.sads", static_cast<std::size_t>(left_capacity) * sizeof(std::int32_t));
   Buffer& histogram =
       scratch("stereo_match.histogram", static_cast<std::size_t>(kHistogramWords) * sizeof(std::uint32_t));
-  launched(launch_stereo_match(dev<std::uint8_t>(left_pyramid), dev<std::uint8_t>(right_pyramid),
-                               dev<DevKeypoint>(*left_keypoints.items),
-                               detail::count_of(left_keypoints, left_capacity),
-                               dev<std::uint8_t>(left_descriptors),
-                               right_capacity > 0 ? dev<DevKeypoint>(*right_keypoints.items) : nullptr,
-                               detail::count_of(right_keypoints, right_capacity),
-                               dev<std::uint8_t>(right_descriptors), launch, dev<std::int32_t>(matches),
-                               dev<std::int32_t>(sads), dev<std::uint32_t>(histogram), stream()),
-           "stereo_match");
+  enqueue<&launch_stereo_match>(
+      "stereo_match", dev<std::uint8_t>(left_pyramid), dev<std::uint8_t>(right_pyramid),
+      dev<DevKeypoint>(*left_keypoints.items), detail::count_of(left_keypoints, left_capacity),
+      dev<std::uint8_t>(left_descriptors),
+      right_capacity > 0 ? dev<DevKeypoint>(*right_keypoints.items) : static_cast<const DevKeypoint*>(nullptr),
+      detail::count_of(right_keypoints, right_capacity), dev<std::uint8_t>(right_descriptors), launch,
+      dev<std::int32_t>(matches), dev<std::int32_t>(sads), dev<std::uint32_t>(histogram));
 }
 
 // §3.10: a warp per query scanning the keypoint list.
@@ -74,12 +71,10 @@ void CudaBackend::projection_match(ConstDeviceList keypoints, const Buffer& keyp
   scales.count = static_cast<int>(std::min<std::size_t>(scales_q16.size(), 256));
   std::copy_n(scales_q16.begin(), scales.count, scales.v);
   activate();
-  launched(
-      launch_projection_match(capacity > 0 ? dev<DevKeypoint>(*keypoints.items) : nullptr,
-                              detail::count_of(keypoints, capacity), dev<std::uint8_t>(keypoint_descriptors),
-                              dev<std::uint8_t>(queries), dev<std::uint8_t>(query_descriptors),
-                              static_cast<int>(n), scales, dev<std::int32_t>(results), stream()),
-      "projection_match");
+  enqueue<&launch_projection_match>(
+      "projection_match", capacity > 0 ? dev<DevKeypoint>(*keypoints.items) : static_cast<const DevKeypoint*>(nullptr),
+      detail::count_of(keypoints, capacity), dev<std::uint8_t>(keypoint_descriptors), dev<std::uint8_t>(queries),
+      dev<std::uint8_t>(query_descriptors), static_cast<int>(n), scales, dev<std::int32_t>(results));
 }
 
 }  // namespace porta::cuda

@@ -5,12 +5,15 @@
 #include <cstring>
 #include <stdexcept>
 
-// Image files are read with OpenCV where the build has it, else with libpng (the GPU machine of
-// ci/gpu.sh has no OpenCV), else not at all: tests needing real images then skip, saying why.
+#include "porta/settings.hpp"
+
+// Image files are read with OpenCV where the build has it, else with libpng through imageio/ (the
+// GPU machine of ci/gpu.sh has no OpenCV), else not at all: tests needing real images then skip,
+// saying why.
 #if PORTA_TESTS_HAVE_OPENCV
 #include <opencv2/imgcodecs.hpp>
 #elif PORTA_TESTS_HAVE_PNG
-#include <png.h>
+#include "imageio/png_file.hpp"
 #endif
 
 namespace porta::test {
@@ -88,18 +91,11 @@ Image load_gray(const std::string& path) {
   for (int y = 0; y < m.rows; ++y) std::memcpy(img.row(y), m.ptr(y), static_cast<std::size_t>(m.cols));
   return img;
 #elif PORTA_TESTS_HAVE_PNG
-  png_image png{};
-  png.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&png, path.c_str()))
-    throw std::runtime_error("cannot read image " + path + ": " + png.message);
-  png.format = PNG_FORMAT_GRAY;
-  Image img(static_cast<int>(png.width), static_cast<int>(png.height));
-  if (!png_image_finish_read(&png, nullptr, img.data(), img.pitch_bytes(), nullptr)) {
-    const std::string why = png.message;
-    png_image_free(&png);
-    throw std::runtime_error("cannot decode image " + path + ": " + why);
+  try {
+    return io::read_png_gray(path, kMaxImageSide).gray;
+  } catch (const io::PngError& e) {
+    throw std::runtime_error("cannot read image " + path + ": " + e.what());
   }
-  return img;
 #else
   throw std::runtime_error("cannot read image " + path + ": " + image_loading_unavailable_reason());
 #endif

@@ -19,7 +19,8 @@ Image checkerboard(int width, int height, int square, int pitch_bytes = 0);
 Image textured_image(int width, int height, std::uint64_t seed, int pitch_bytes = 0);
 /// `src` shifted right by `dx` px (negative: left); columns entering repeat the border column.
 Image shifted_right(const Image& src, int dx);
-/// Loads a grayscale image (with OpenCV, or with libpng where OpenCV is absent: PNG only); throws
+/// Loads a grayscale image (with OpenCV, or with libpng through imageio/ where OpenCV is absent: PNG
+/// only, colour converted with OpenCV's weights); throws
 /// std::runtime_error when it cannot be read or when this build has no image loader.
 Image load_gray(const std::string& path);
 /// Why load_gray() cannot work in this build (built without OpenCV and libpng), or empty when it can.
