@@ -4,6 +4,7 @@
 #include <string>
 
 #include "cpu/cpu_backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/tables.hpp"
 
 namespace porta::cpu {
@@ -13,15 +14,15 @@ namespace {
 /// How far the rotated ORB pattern reaches from the keypoint (tables.hpp: within [-18, 18]).
 constexpr int kOrbPatternReach = 18;
 
-[[noreturn]] void fail(const char* call, const std::string& what) {
-  throw BackendError(std::string("cpu: ") + call + ": " + what);
-}
+constexpr const char* kBackend = "cpu";
+
+[[noreturn]] void fail(const char* call, const std::string& what) { checks::fail(kBackend, call, what); }
 
 /// Checks what the kernels index with before any thread starts, so that a bad argument is an
 /// error naming the keypoint instead of a read outside the buffer.
 void check_keypoints(const char* call, const Keypoint* keypoints, int count, const PyramidLayout& layout,
                      int reach, int bins) {
-  if (layout.element_bytes != 1) fail(call, "the pyramid must hold 8-bit pixels");
+  checks::check_8bit_pixels(kBackend, call, layout);
   for (int i = 0; i < count; ++i) {
     const Keypoint& kp = keypoints[i];
     const std::string which = "keypoint " + std::to_string(i) + " (" + std::to_string(kp.x) + ", " +
@@ -39,11 +40,6 @@ void check_keypoints(const char* call, const Keypoint* keypoints, int count, con
   }
 }
 
-void check_bins(const char* call, int bins) {
-  // angle_bin is a uint8, so at most 256 bins can be told apart.
-  if (bins < 1 || bins > 256) fail(call, "bins = " + std::to_string(bins) + " is outside [1, 256]");
-}
-
 /// cross(u, m) = u.x * m.y - u.y * m.x. |u| <= 1024 and |m| < 2^20 keep it inside int32.
 std::int32_t cross(const std::int32_t* u, std::int32_t m10, std::int32_t m01) {
   return u[0] * m01 - u[1] * m10;
@@ -56,13 +52,7 @@ std::int32_t cross(const std::int32_t* u, std::int32_t m10, std::int32_t m01) {
 // cross(u_b, m) >= 0 > cross(u_{b+1 mod B}, m), bin 0 when none (m = 0). Other fields unchanged.
 void CpuBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
                         const std::array<int, 16>& umax, const Buffer& boundaries, int bins) {
-  check_bins("orient", bins);
-  if (boundaries.size_bytes() < static_cast<std::size_t>(bins) * 2 * sizeof(std::int32_t))
-    fail("orient", "the boundary table holds fewer than " + std::to_string(bins) + " (x, y) pairs");
-  for (int dy = 0; dy <= kOrientationRadius; ++dy)
-    if (umax[dy] < 0 || umax[dy] > kOrientationRadius)
-      fail("orient",
-           "umax[" + std::to_string(dy) + "] = " + std::to_string(umax[dy]) + " is outside [0, 15]");
+  checks::check_orient_tables(kBackend, umax, boundaries, bins);
   const int count = list_count(keypoints);
   Keypoint* records = as<Keypoint>(*keypoints.items);
   check_keypoints("orient", records, count, layout, kOrientationRadius, 0);
@@ -102,10 +92,7 @@ void CpuBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, Devi
 void CpuBackend::orb_describe(const Buffer& blurred, const PyramidLayout& layout, ConstDeviceList keypoints,
                               const Buffer& pattern, Buffer& descriptors) {
   constexpr std::size_t kBinBytes = static_cast<std::size_t>(kOrbPairs) * 4;
-  // The table's length gives the number of bins; angle_bin can name at most 256 of them.
-  const std::size_t table_bins = pattern.size_bytes() / kBinBytes;
-  const int bins = static_cast<int>(table_bins < 256 ? table_bins : 256);
-  if (bins == 0) fail("orb_describe", "the pattern table holds no bin of 256 pairs");
+  const int bins = checks::orb_pattern_bins(kBackend, pattern);
   const int count = list_count(keypoints);
   const Keypoint* records = as<Keypoint>(*keypoints.items);
   check_keypoints("orb_describe", records, count, layout, kOrbPatternReach, bins);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cpu/cpu_backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/tables.hpp"
 
 namespace porta::cpu {
@@ -35,11 +36,7 @@ struct LevelRows {
 };
 
 void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, const char* call) {
-  bool same = a.num_levels() == b.num_levels();
-  for (int n = 0; same && n < a.num_levels(); ++n)
-    same = a.levels[n].width == b.levels[n].width && a.levels[n].height == b.levels[n].height;
-  if (!same)
-    throw BackendError(std::string("cpu: ") + call + ": the two layouts do not have the same level sizes");
+  checks::check_same_level_sizes("cpu", call, a, b);
 }
 
 }  // namespace
@@ -50,9 +47,7 @@ void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, cons
 void CpuBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                           Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
   check_same_level_sizes(layout, response_layout, "fast_crf");
-  if (params.edge < 3)
-    throw BackendError("cpu: fast_crf: edge " + std::to_string(params.edge) +
-                       " is below 3, the radius of the FAST circle; allowed: >= 3");
+  checks::check_fast_edge("cpu", params);
   const std::uint8_t* pass = as<std::uint8_t>(lut);
   const int eps = params.threshold;
   const int edge = params.edge;

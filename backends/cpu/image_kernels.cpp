@@ -8,32 +8,14 @@
 #include <vector>
 
 #include "cpu/cpu_backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/tables.hpp"
 
 namespace porta::cpu {
 
 namespace {
 
-// A kernel reading or writing outside its buffer would corrupt memory silently; say which.
-void require_plane_inside(const Buffer& buffer, const Plane& plane, int element_bytes, const char* kernel,
-                          const char* what) {
-  if (plane.width <= 0 || plane.height <= 0) return;
-  const std::int64_t end_bytes =
-      plane.offset_bytes +
-      (static_cast<std::int64_t>(plane.height - 1) * plane.pitch + plane.width) * element_bytes;
-  if (plane.offset_bytes < 0 || plane.pitch < plane.width ||
-      end_bytes > static_cast<std::int64_t>(buffer.size_bytes()))
-    throw BackendError(std::string("cpu: ") + kernel + ": " + what + " plane (offset " +
-                       std::to_string(plane.offset_bytes) + " bytes, " + std::to_string(plane.width) + "x" +
-                       std::to_string(plane.height) + ", pitch " + std::to_string(plane.pitch) +
-                       ") does not fit its buffer of " + std::to_string(buffer.size_bytes()) + " bytes");
-}
-
-void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel, const std::string& what) {
-  if (bytes > static_cast<std::int64_t>(buffer.size_bytes()))
-    throw BackendError(std::string("cpu: ") + kernel + ": " + what + " needs " + std::to_string(bytes) +
-                       " bytes but its buffer has " + std::to_string(buffer.size_bytes()));
-}
+constexpr const char* kBackend = "cpu";
 
 }  // namespace
 
@@ -42,10 +24,7 @@ void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel,
 // x0 = xq >> 5 is a floor also for negative xq (C++20 defines >> on negatives as arithmetic).
 void CpuBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
                          const Plane& dst_plane) {
-  require_plane_inside(src, src_plane, 1, "rectify", "source");
-  require_plane_inside(dst, dst_plane, 1, "rectify", "destination");
-  require_bytes(map, static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4, "rectify",
-                "the map");
+  checks::check_rectify(kBackend, src, src_plane, map, dst, dst_plane);
   if (dst_plane.width <= 0 || dst_plane.height <= 0) return;
 
   const std::uint8_t* src_pixels = as<std::uint8_t>(src, src_plane.offset_bytes);
@@ -78,21 +57,13 @@ void CpuBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffer
 void CpuBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();
-  if (levels > 1 && static_cast<int>(level_offset.size()) < levels - 1)
-    throw BackendError("cpu: build_pyramid: " + std::to_string(level_offset.size()) +
-                       " level offsets given for " + std::to_string(levels) + " levels (need levels - 1)");
-  for (int n = 0; n < levels; ++n)
-    require_plane_inside(pyramid, layout.levels[n], 1, "build_pyramid", "level");
+  checks::check_pyramid(kBackend, pyramid, layout, resize_table, level_offset,
+                        /*reject_negative_offsets=*/false);
 
   const std::int32_t* table = as<std::int32_t>(resize_table);
   for (int n = 1; n < levels; ++n) {
     const Plane& above = layout.levels[n - 1];
     const Plane& level = layout.levels[n];
-    const std::int64_t table_end =
-        static_cast<std::int64_t>(level_offset[n - 1]) + 2 * level.width + 2 * level.height;
-    require_bytes(resize_table, table_end * 4, "build_pyramid",
-                  "the resize table of level " + std::to_string(n));
-
     const std::int32_t* col_src0 = table + level_offset[n - 1];
     const std::int32_t* col_w1 = col_src0 + level.width;
     const std::int32_t* row_src0 = col_w1 + level.width;
@@ -125,18 +96,7 @@ void CpuBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, con
 // (sum t_k * h + 2^15) >> 16. Taps must be non-negative and sum to 256 (build_blur_taps()).
 void CpuBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
                       const std::array<std::int32_t, 7>& taps) {
-  std::int32_t tap_sum = 0;
-  for (const std::int32_t t : taps) {
-    if (t < 0) throw BackendError("cpu: blur: taps must be non-negative (see build_blur_taps())");
-    tap_sum += t;
-  }
-  if (tap_sum != 256)
-    throw BackendError("cpu: blur: taps sum to " + std::to_string(tap_sum) +
-                       ", must sum to 256 (see build_blur_taps())");
-  for (const Plane& level : layout.levels) {
-    require_plane_inside(pyramid, level, 1, "blur", "pyramid level");
-    require_plane_inside(blurred, level, 1, "blur", "blurred level");
-  }
+  checks::check_blur(kBackend, pyramid, layout, blurred, taps);
 
   std::vector<std::uint16_t> horizontal;  // one level's horizontal pass, packed (pitch = width)
   std::vector<int> reflected_x;           // reflected_x[x + 3] = reflect101(x, width), x in [-3, width + 3)

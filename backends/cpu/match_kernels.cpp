@@ -8,6 +8,7 @@
 
 #include "cpu/cpu_backend.hpp"
 #include "cpu/stereo_math.hpp"
+#include "porta/kernel_checks.hpp"
 
 namespace porta::cpu {
 
@@ -148,10 +149,7 @@ void CpuBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right_py
                               ConstDeviceList right_keypoints, const Buffer& right_descriptors,
                               const StereoParams& params, Buffer& matches) {
   const auto levels = static_cast<std::size_t>(layout.num_levels());
-  if (params.scales_q16.size() < levels || params.row_radius_q8.size() < levels)
-    throw BackendError("cpu: stereo_match: the layout has " + std::to_string(levels) + " levels but scales_q16 has " +
-                       std::to_string(params.scales_q16.size()) + " and row_radius_q8 " +
-                       std::to_string(params.row_radius_q8.size()) + " entries; give one per level");
+  checks::check_stereo_tables("cpu", layout, params);
 
   StereoInputs in;
   in.left = as<Keypoint>(*left_keypoints.items);

@@ -81,9 +81,7 @@ void CudaBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, c
                            Buffer& responses, const PyramidLayout& response_layout,
                            const FastParams& params) {
   check_same_level_sizes(layout, response_layout, "fast_crf");
-  if (params.edge < 3)
-    fail("fast_crf",
-         "edge " + std::to_string(params.edge) + " is below 3, the radius of the FAST circle; allowed: >= 3");
+  checks::check_fast_edge(detail::kBackend, params);
   require_bytes(lut, 65536, "fast_crf", "the FAST table");
   for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
   for (const Plane& p : response_layout.levels)
@@ -173,20 +171,9 @@ void CudaBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const
 // Canonical compaction: per-block counts, a one-block scan that also writes the count, then a
 // per-block scatter with ballot ranks; the order is the cell order whatever the device.
 void CudaBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
-  if (out.count == nullptr) fail("compact_keypoints", "the list has no count buffer");
-  if (out.count_offset_bytes < 0)
-    fail("compact_keypoints", "negative count offset " + std::to_string(out.count_offset_bytes));
-  require_bytes(*out.count, out.count_offset_bytes + 4, "compact_keypoints", "the count");
-  const int total = std::max(total_cells, 0);
-  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
-                "compact_keypoints", "the cell array");
   // Records past the items buffer are not written (the cpu backend would write past its end).
-  std::int64_t capacity = std::max(out.capacity, 0);
-  if (out.items == nullptr)
-    capacity = 0;
-  else
-    capacity = std::min<std::int64_t>(capacity,
-                                      static_cast<std::int64_t>(out.items->size_bytes() / sizeof(Keypoint)));
+  const std::int64_t capacity = checks::compact_capacity(detail::kBackend, cells, total_cells, out);
+  const int total = std::max(total_cells, 0);
   activate();
   const int blocks = (total + kCompactCellsPerBlock - 1) / kCompactCellsPerBlock;
   Buffer& block_scratch = scratch("compact.blocks", static_cast<std::size_t>(std::max(blocks, 1)) * 4);

@@ -1,6 +1,6 @@
-// Argument checks and launch descriptions shared by the CUDA backend's *_ops.cpp files: what the
-// kernels index with is checked on the host before a launch, so that a bad argument is an error
-// naming it instead of a device fault. Internal to the backend.
+// Argument checks and launch descriptions shared by the CUDA backend's *_ops.cpp files: the checks
+// themselves are porta/kernel_checks.hpp's (shared by every backend), with the CUDA backend's name
+// and plane limits; what is CUDA-specific here is the launch description. Internal to the backend.
 #pragma once
 
 #include <algorithm>
@@ -13,13 +13,16 @@
 #include "cuda/cuda_backend.hpp"
 #include "cuda/cuda_errors.hpp"
 #include "cuda/kernels.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/layout.hpp"
 
 namespace porta::cuda::detail {
 
-[[noreturn]] inline void fail(const char* call, const std::string& what) {
-  throw BackendError(std::string("cuda: ") + call + ": " + what);
-}
+inline constexpr const char* kBackend = "cuda";
+// Kernels index planes of their element type from byte offsets of 64 bits.
+inline constexpr checks::PlaneLimits kPlaneLimits{.aligned = true};
+
+[[noreturn]] inline void fail(const char* call, const std::string& what) { checks::fail(kBackend, call, what); }
 
 /// A kernel's launch status, as a BackendError naming the kernel.
 inline void launched(cudaError_t status, const char* kernel) {
@@ -28,23 +31,12 @@ inline void launched(cudaError_t status, const char* kernel) {
 
 inline void require_plane_inside(const Buffer& buffer, const Plane& plane, int element_bytes,
                                  const char* kernel, const char* what) {
-  if (plane.width <= 0 || plane.height <= 0) return;
-  const std::int64_t end_bytes =
-      plane.offset_bytes +
-      (static_cast<std::int64_t>(plane.height - 1) * plane.pitch + plane.width) * element_bytes;
-  if (plane.offset_bytes < 0 || plane.pitch < plane.width || plane.offset_bytes % element_bytes != 0 ||
-      end_bytes > static_cast<std::int64_t>(buffer.size_bytes()))
-    fail(kernel, std::string(what) + " plane (offset " + std::to_string(plane.offset_bytes) + " bytes, " +
-                     std::to_string(plane.width) + "x" + std::to_string(plane.height) + ", pitch " +
-                     std::to_string(plane.pitch) + ") does not fit its buffer of " +
-                     std::to_string(buffer.size_bytes()) + " bytes");
+  checks::check_plane(kBackend, kernel, what, buffer, plane, element_bytes, kPlaneLimits);
 }
 
 inline void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel,
                           const std::string& what) {
-  if (bytes > static_cast<std::int64_t>(buffer.size_bytes()))
-    fail(kernel, what + " needs " + std::to_string(bytes) + " bytes but its buffer has " +
-                     std::to_string(buffer.size_bytes()));
+  checks::check_bytes(kBackend, kernel, what, buffer, bytes);
 }
 
 inline void require_levels(int levels, const char* kernel) {
@@ -84,23 +76,10 @@ inline DevTiledLevels tile_levels(const PyramidLayout& layout, const char* kerne
 }
 
 inline void check_count_offset(const char* call, const ConstDeviceList& list) {
-  if (list.count && (list.count_offset_bytes < 0 ||
-                     static_cast<std::uint64_t>(list.count_offset_bytes) + 4 > list.count->size_bytes()))
-    fail(call, "the list's count at byte " + std::to_string(list.count_offset_bytes) +
-                   " lies outside its buffer of " + std::to_string(list.count->size_bytes()) + " bytes");
+  checks::check_count_offset(kBackend, call, list);
 }
 
-/// The list slots a kernel may touch: the capacity, but never more records than each of `buffers`
-/// (with its record size) holds. The cpu backend reads only `count` records, so a capacity larger
-/// than a buffer is no error as long as the count fits; the device must not read past the end.
-inline int usable_capacity(const ConstDeviceList& list,
-                           std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers) {
-  if (!list.items || !list.count || list.capacity <= 0) return 0;
-  std::int64_t n = list.capacity;
-  for (const auto& [buffer, record_bytes] : buffers)
-    n = std::min<std::int64_t>(n, static_cast<std::int64_t>(buffer->size_bytes() / record_bytes));
-  return static_cast<int>(n);
-}
+using checks::usable_capacity;
 
 /// The device view of a list's length.
 inline DevCount count_of(const ConstDeviceList& list, int capacity) {

@@ -9,17 +9,11 @@
 
 namespace porta::cuda {
 
-using detail::fail;
-using detail::require_bytes;
-using detail::require_plane_inside;
 
 // §3.1: one thread per destination pixel.
 void CudaBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
                           const Plane& dst_plane) {
-  require_plane_inside(src, src_plane, 1, "rectify", "source");
-  require_plane_inside(dst, dst_plane, 1, "rectify", "destination");
-  require_bytes(map, static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4, "rectify",
-                "the map");
+  checks::check_rectify(detail::kBackend, src, src_plane, map, dst, dst_plane, detail::kPlaneLimits);
   if (dst_plane.width <= 0 || dst_plane.height <= 0) return;
   activate();
   // An empty source reads 0 everywhere: the kernel's bounds tests see width or height 0.
@@ -33,20 +27,8 @@ void CudaBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffe
 void CudaBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                 const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();
-  if (levels > 1 && static_cast<int>(level_offset.size()) < levels - 1)
-    fail("build_pyramid", std::to_string(level_offset.size()) + " level offsets given for " +
-                              std::to_string(levels) + " levels (need levels - 1)");
-  for (int n = 0; n < levels; ++n)
-    require_plane_inside(pyramid, layout.levels[static_cast<std::size_t>(n)], 1, "build_pyramid", "level");
-  for (int n = 1; n < levels; ++n) {
-    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
-    const std::int64_t offset = level_offset[static_cast<std::size_t>(n - 1)];
-    if (offset < 0)
-      fail("build_pyramid",
-           "negative resize table offset " + std::to_string(offset) + " for level " + std::to_string(n));
-    require_bytes(resize_table, (offset + 2 * static_cast<std::int64_t>(level.width) + 2 * level.height) * 4,
-                  "build_pyramid", "the resize table of level " + std::to_string(n));
-  }
+  checks::check_pyramid(detail::kBackend, pyramid, layout, resize_table, level_offset,
+                        /*reject_negative_offsets=*/true, detail::kPlaneLimits);
   activate();
   for (int n = 1; n < levels; ++n) {
     const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
@@ -62,17 +44,7 @@ void CudaBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, co
 // through shared memory.
 void CudaBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
                        const std::array<std::int32_t, 7>& taps) {
-  std::int32_t tap_sum = 0;
-  for (const std::int32_t t : taps) {
-    if (t < 0) fail("blur", "taps must be non-negative (see build_blur_taps())");
-    tap_sum += t;
-  }
-  if (tap_sum != 256)
-    fail("blur", "taps sum to " + std::to_string(tap_sum) + ", must sum to 256 (see build_blur_taps())");
-  for (const Plane& level : layout.levels) {
-    require_plane_inside(pyramid, level, 1, "blur", "pyramid level");
-    require_plane_inside(blurred, level, 1, "blur", "blurred level");
-  }
+  checks::check_blur(detail::kBackend, pyramid, layout, blurred, taps, detail::kPlaneLimits);
   const DevTiledLevels tiles = detail::tile_levels(layout, "blur");
   if (tiles.first_block[tiles.count] == 0) return;
   activate();

@@ -9,8 +9,6 @@
 
 namespace porta::cuda {
 
-using detail::fail;
-
 // §3.9 in two launches: candidates (steps a-e, a warp per left keypoint scanning the right list,
 // each accepted SAD counted in a histogram), then one block for the median and the rejection.
 void CudaBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right_pyramid,
@@ -18,10 +16,7 @@ void CudaBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right_p
                                const Buffer& left_descriptors, ConstDeviceList right_keypoints,
                                const Buffer& right_descriptors, const StereoParams& params, Buffer& matches) {
   const auto levels = static_cast<std::size_t>(layout.num_levels());
-  if (params.scales_q16.size() < levels || params.row_radius_q8.size() < levels)
-    fail("stereo_match", "the layout has " + std::to_string(levels) + " levels but scales_q16 has " +
-                             std::to_string(params.scales_q16.size()) + " and row_radius_q8 " +
-                             std::to_string(params.row_radius_q8.size()) + " entries; give one per level");
+  checks::check_stereo_tables(detail::kBackend, layout, params);
   StereoLaunch launch{};
   launch.layout = detail::to_dev(layout, "stereo_match");  // refuses more than 12 levels
   for (std::size_t n = 0; n < levels; ++n) {
@@ -58,11 +53,7 @@ void CudaBackend::projection_match(ConstDeviceList keypoints, const Buffer& keyp
                                    const std::vector<std::int32_t>& scales_q16, Buffer& results) {
   detail::check_count_offset("projection_match", keypoints);
   // Never past the end of a query-side buffer (the cpu backend trusts num_queries).
-  std::int64_t n = std::max(num_queries, 0);
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(queries.size_bytes() / sizeof(ProjectionQuery)));
-  n = std::min<std::int64_t>(n,
-                             static_cast<std::int64_t>(query_descriptors.size_bytes() / sizeof(Descriptor)));
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(results.size_bytes() / sizeof(ProjectionResult)));
+  const std::int64_t n = checks::usable_queries(num_queries, queries, query_descriptors, results);
   if (n == 0) return;
   const int capacity = detail::usable_capacity(
       keypoints, {{keypoints.items, sizeof(Keypoint)}, {&keypoint_descriptors, sizeof(Descriptor)}});

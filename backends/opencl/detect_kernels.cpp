@@ -10,40 +10,27 @@
 
 #include "opencl/cl_types.hpp"
 #include "opencl/opencl_backend.hpp"
+#include "porta/kernel_checks.hpp"
 
 namespace porta::opencl {
 
 namespace {
 
+constexpr const char* kBackend = "opencl";
+// Kernels index planes of their element type with cl_int offsets.
+constexpr checks::PlaneLimits kPlanes{true, std::numeric_limits<cl_int>::max()};
+
 void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, const char* call) {
-  bool same = a.num_levels() == b.num_levels();
-  for (int n = 0; same && n < a.num_levels(); ++n)
-    same = a.levels[static_cast<std::size_t>(n)].width == b.levels[static_cast<std::size_t>(n)].width &&
-           a.levels[static_cast<std::size_t>(n)].height == b.levels[static_cast<std::size_t>(n)].height;
-  if (!same)
-    throw BackendError(std::string("opencl: ") + call + ": the two layouts do not have the same level sizes");
+  checks::check_same_level_sizes(kBackend, call, a, b);
 }
 
-// A kernel reading or writing outside its buffer would corrupt device memory silently; say which.
 void require_plane_inside(const Buffer& buffer, const Plane& plane, int element_bytes, const char* kernel,
                           const char* what) {
-  if (plane.width <= 0 || plane.height <= 0) return;
-  const std::int64_t end_bytes =
-      plane.offset_bytes +
-      (static_cast<std::int64_t>(plane.height - 1) * plane.pitch + plane.width) * element_bytes;
-  if (plane.offset_bytes < 0 || plane.pitch < plane.width || plane.offset_bytes % element_bytes != 0 ||
-      end_bytes > static_cast<std::int64_t>(buffer.size_bytes()) ||
-      plane.offset_bytes > std::numeric_limits<cl_int>::max())
-    throw BackendError(std::string("opencl: ") + kernel + ": " + what + " plane (offset " +
-                       std::to_string(plane.offset_bytes) + " bytes, " + std::to_string(plane.width) + "x" +
-                       std::to_string(plane.height) + ", pitch " + std::to_string(plane.pitch) +
-                       ") does not fit its buffer of " + std::to_string(buffer.size_bytes()) + " bytes");
+  checks::check_plane(kBackend, kernel, what, buffer, plane, element_bytes, kPlanes);
 }
 
 void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel, const std::string& what) {
-  if (bytes > static_cast<std::int64_t>(buffer.size_bytes()))
-    throw BackendError(std::string("opencl: ") + kernel + ": " + what + " needs " + std::to_string(bytes) +
-                       " bytes but its buffer has " + std::to_string(buffer.size_bytes()));
+  checks::check_bytes(kBackend, kernel, what, buffer, bytes);
 }
 
 // Every level of `layout` with empty levels given no rows; the widest level and the total rows.
@@ -71,9 +58,7 @@ constexpr int kCompactBlock = 128;  // cells per work-item of the compaction
 void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
   check_same_level_sizes(layout, response_layout, "fast_crf");
-  if (params.edge < 3)
-    throw BackendError("opencl: fast_crf: edge " + std::to_string(params.edge) +
-                       " is below 3, the radius of the FAST circle; allowed: >= 3");
+  checks::check_fast_edge(kBackend, params);
   require_bytes(lut, 65536, "fast_crf", "the FAST table");
   for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
   for (const Plane& p : response_layout.levels) require_plane_inside(responses, p, 2, "fast_crf", "response level");
@@ -147,19 +132,9 @@ void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
 // Canonical compaction: per-block counts, a one-work-item scan that also writes the count, then a
 // per-block scatter; the order is the cell order whatever the device.
 void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
-  if (out.count == nullptr) throw BackendError("opencl: compact_keypoints: the list has no count buffer");
-  if (out.count_offset_bytes < 0)
-    throw BackendError("opencl: compact_keypoints: negative count offset " + std::to_string(out.count_offset_bytes));
-  require_bytes(*out.count, out.count_offset_bytes + 4, "compact_keypoints", "the count");
-  const int total = std::max(total_cells, 0);
-  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
-                "compact_keypoints", "the cell array");
   // Records past the items buffer are not written (the cpu backend would write past its end).
-  std::int64_t capacity = std::max(out.capacity, 0);
-  if (out.items == nullptr)
-    capacity = 0;
-  else
-    capacity = std::min<std::int64_t>(capacity, static_cast<std::int64_t>(out.items->size_bytes() / sizeof(Keypoint)));
+  const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total_cells, out);
+  const int total = std::max(total_cells, 0);
 
   const int num_blocks = (total + kCompactBlock - 1) / kCompactBlock;
   Buffer& blocks = scratch("compact_blocks", static_cast<std::size_t>(std::max(num_blocks, 1)) * 4);

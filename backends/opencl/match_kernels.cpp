@@ -8,6 +8,7 @@
 
 #include "opencl/cl_types.hpp"
 #include "opencl/opencl_backend.hpp"
+#include "porta/kernel_checks.hpp"
 
 namespace porta::opencl {
 
@@ -18,10 +19,6 @@ constexpr std::size_t kSadValues = 61711;  // a centred 11x11 SAD is at most 121
 constexpr std::size_t kSadBlocks = (kSadValues + 255) / 256;
 constexpr std::size_t kHistogramBytes = (kSadValues + kSadBlocks + 1) * sizeof(cl_uint);
 
-[[noreturn]] void fail(const char* call, const std::string& what) {
-  throw BackendError(std::string("opencl: ") + call + ": " + what);
-}
-
 /// The first `n` values of a per-level table, by value (the rest zero).
 ClLevelInts first_levels(const std::vector<std::int32_t>& v, std::size_t n) {
   ClLevelInts out{};
@@ -31,23 +28,10 @@ ClLevelInts first_levels(const std::vector<std::int32_t>& v, std::size_t n) {
 }
 
 void check_count_offset(const char* call, const ConstDeviceList& list) {
-  if (list.count && (list.count_offset_bytes < 0 ||
-                     static_cast<std::uint64_t>(list.count_offset_bytes) + 4 > list.count->size_bytes()))
-    fail(call, "the list's count at byte " + std::to_string(list.count_offset_bytes) +
-                   " lies outside its buffer of " + std::to_string(list.count->size_bytes()) + " bytes");
+  checks::check_count_offset("opencl", call, list);
 }
 
-/// The list slots a kernel may touch: the capacity, but never more records than each of `buffers`
-/// (with its record size) holds. The cpu backend reads only `count` records, so a capacity larger
-/// than a buffer is no error as long as the count fits; the device must not read past the end.
-int usable_capacity(const ConstDeviceList& list,
-                    std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers) {
-  if (!list.items || !list.count || list.capacity <= 0) return 0;
-  std::int64_t n = list.capacity;
-  for (const auto& [buffer, record_bytes] : buffers)
-    n = std::min<std::int64_t>(n, static_cast<std::int64_t>(buffer->size_bytes() / record_bytes));
-  return static_cast<int>(n);
-}
+using checks::usable_capacity;
 
 }  // namespace
 
@@ -60,10 +44,7 @@ void OpenClBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right
                                  const Buffer& right_descriptors, const StereoParams& params,
                                  Buffer& matches) {
   const auto levels = static_cast<std::size_t>(layout.num_levels());
-  if (params.scales_q16.size() < levels || params.row_radius_q8.size() < levels)
-    fail("stereo_match", "the layout has " + std::to_string(levels) + " levels but scales_q16 has " +
-                             std::to_string(params.scales_q16.size()) + " and row_radius_q8 " +
-                             std::to_string(params.row_radius_q8.size()) + " entries; give one per level");
+  checks::check_stereo_tables("opencl", layout, params);
   const ClLevels cl_layout = to_cl(layout);  // refuses more than 12 levels
   check_count_offset("stereo_match", left_keypoints);
   check_count_offset("stereo_match", right_keypoints);
@@ -101,11 +82,7 @@ void OpenClBackend::projection_match(ConstDeviceList keypoints, const Buffer& ke
                                      const std::vector<std::int32_t>& scales_q16, Buffer& results) {
   check_count_offset("projection_match", keypoints);
   // Never past the end of a query-side buffer (the cpu backend trusts num_queries).
-  std::int64_t n = std::max(num_queries, 0);
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(queries.size_bytes() / sizeof(ProjectionQuery)));
-  n = std::min<std::int64_t>(n,
-                             static_cast<std::int64_t>(query_descriptors.size_bytes() / sizeof(Descriptor)));
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(results.size_bytes() / sizeof(ProjectionResult)));
+  const std::int64_t n = checks::usable_queries(num_queries, queries, query_descriptors, results);
   if (n == 0) return;
   const int capacity = usable_capacity(
       keypoints, {{keypoints.items, sizeof(Keypoint)}, {&keypoint_descriptors, sizeof(Descriptor)}});

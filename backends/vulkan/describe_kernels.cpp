@@ -34,31 +34,15 @@ struct OrbDescribeParams {  // orb_describe.comp (parameter buffer)
 static_assert(sizeof(OrientParams) == 208 + 64 + 16 && sizeof(OrbDescribeParams) == 208 + 16);
 static_assert(sizeof(OrientParams) <= kMaxParamsBytes);
 
-[[noreturn]] void fail(const char* call, const std::string& what) {
-  throw BackendError(std::string("vulkan: ") + call + ": " + what);
-}
-
-void check_bins(const char* call, int bins) {
-  // angle_bin is a uint8, so at most 256 bins can be told apart.
-  if (bins < 1 || bins > 256) fail(call, "bins = " + std::to_string(bins) + " is outside [1, 256]");
-}
-
 }  // namespace
 
 // §3.6: one invocation per list slot.
 void VulkanBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
                            const std::array<int, 16>& umax, const Buffer& boundaries, int bins) {
-  check_bins("orient", bins);
-  if (boundaries.size_bytes() < static_cast<std::size_t>(bins) * 2 * sizeof(std::int32_t))
-    fail("orient", "the boundary table holds fewer than " + std::to_string(bins) + " (x, y) pairs");
+  checks::check_orient_tables(kBackend, umax, boundaries, bins);
   OrientParams p{};
-  for (int dy = 0; dy <= kOrientationRadius; ++dy) {
-    const int u = umax[static_cast<std::size_t>(dy)];
-    if (u < 0 || u > kOrientationRadius)
-      fail("orient", "umax[" + std::to_string(dy) + "] = " + std::to_string(u) + " is outside [0, 15]");
-    p.umax[dy] = u;
-  }
-  if (layout.element_bytes != 1) fail("orient", "the pyramid must hold 8-bit pixels");
+  for (int dy = 0; dy <= kOrientationRadius; ++dy) p.umax[dy] = umax[static_cast<std::size_t>(dy)];
+  checks::check_8bit_pixels(kBackend, "orient", layout);
   for (const Plane& plane : layout.levels) require_plane_inside(pyramid, plane, 1, "orient", "pyramid level");
   const int capacity = usable_capacity(keypoints, {{keypoints.items, sizeof(Keypoint)}}, "orient");
   if (capacity == 0) return;
@@ -73,27 +57,13 @@ void VulkanBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, D
 // §3.8: one invocation per (list slot, 32-bit word of its descriptor).
 void VulkanBackend::orb_describe(const Buffer& blurred, const PyramidLayout& layout,
                                  ConstDeviceList keypoints, const Buffer& pattern, Buffer& descriptors) {
-  constexpr std::size_t kBinBytes = static_cast<std::size_t>(kOrbPairs) * 4;
-  // The table's length gives the number of bins; angle_bin can name at most 256 of them.
-  const std::size_t table_bins = pattern.size_bytes() / kBinBytes;
-  const int bins = static_cast<int>(table_bins < 256 ? table_bins : 256);
-  if (bins == 0) fail("orb_describe", "the pattern table holds no bin of 256 pairs");
-  if (layout.element_bytes != 1) fail("orb_describe", "the pyramid must hold 8-bit pixels");
+  const int bins = checks::orb_pattern_bins(kBackend, pattern);
+  checks::check_8bit_pixels(kBackend, "orb_describe", layout);
   for (const Plane& plane : layout.levels)
     require_plane_inside(blurred, plane, 1, "orb_describe", "blurred level");
-  int capacity = usable_capacity(keypoints, {{keypoints.items, sizeof(Keypoint)}}, "orb_describe");
-  const auto fits = static_cast<int>(std::min<std::size_t>(descriptors.size_bytes() / sizeof(Descriptor),
-                                                           static_cast<std::size_t>(capacity)));
-  if (fits < capacity) {
-    // A descriptor buffer smaller than the list's capacity: only here is the count read on the
-    // host (one round-trip), to refuse a list that does not fit as the cpu backend does.
-    std::uint32_t count = 0;
-    download(*keypoints.count, static_cast<std::size_t>(keypoints.count_offset_bytes), &count, sizeof(count));
-    const std::int64_t n = std::min<std::int64_t>(count, keypoints.capacity);
-    if (n > fits)
-      fail("orb_describe", "the descriptor buffer holds fewer than " + std::to_string(n) + " descriptors");
-    capacity = fits;
-  }
+  const int capacity = checks::descriptor_capacity(
+      *this, kBackend, keypoints,
+      usable_capacity(keypoints, {{keypoints.items, sizeof(Keypoint)}}, "orb_describe"), descriptors);
   if (capacity == 0) return;
   OrbDescribeParams p{};
   p.layout = to_glsl(layout, "orb_describe");

@@ -41,9 +41,7 @@ void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
                              Buffer& responses, const PyramidLayout& response_layout,
                              const porta::FastParams& params) {
   check_same_level_sizes(layout, response_layout, "fast_crf");
-  if (params.edge < 3)
-    throw BackendError("vulkan: fast_crf: edge " + std::to_string(params.edge) +
-                       " is below 3, the radius of the FAST circle; allowed: >= 3");
+  checks::check_fast_edge(kBackend, params);
   require_bytes(lut, 65536, "fast_crf", "the FAST table");
   for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
   for (const Plane& p : response_layout.levels)
@@ -123,19 +121,13 @@ void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
 // Canonical compaction: per-block counts, a one-invocation scan that also writes the count, then a
 // per-block scatter; the order is the cell order whatever the device.
 void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
-  if (out.count == nullptr) throw BackendError("vulkan: compact_keypoints: the list has no count buffer");
-  if (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max())
+  if (out.count != nullptr &&
+      (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
     throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
                        " is out of range");
-  require_bytes(*out.count, out.count_offset_bytes + 4, "compact_keypoints", "the count");
-  const int total = std::max(total_cells, 0);
-  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
-                "compact_keypoints", "the cell array");
   // Records past the items buffer are not written (the cpu backend would write past its end).
-  std::int64_t capacity = out.items == nullptr ? 0 : std::max(out.capacity, 0);
-  if (out.items != nullptr)
-    capacity = std::min<std::int64_t>(capacity,
-                                      static_cast<std::int64_t>(out.items->size_bytes() / sizeof(Keypoint)));
+  const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total_cells, out);
+  const int total = std::max(total_cells, 0);
 
   const std::uint32_t num_blocks = (static_cast<std::uint32_t>(total) + kCompactBlock - 1) / kCompactBlock;
   Buffer& blocks =

@@ -34,11 +34,9 @@ static_assert(sizeof(BlurParams) == 208 + 48 + 48);
 // §3.1: one invocation per destination pixel.
 void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
                             const Plane& dst_plane) {
-  require_plane_inside(src, src_plane, 1, "rectify", "source");
-  require_plane_inside(dst, dst_plane, 1, "rectify", "destination");
-  const std::int64_t map_bytes = static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4;
-  require_bytes(map, map_bytes, "rectify", "the map");
+  checks::check_rectify(kBackend, src, src_plane, map, dst, dst_plane, kPlaneLimits);
   if (dst_plane.width <= 0 || dst_plane.height <= 0) return;
+  const std::int64_t map_bytes = static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4;
   if (map_bytes / 4 > std::numeric_limits<std::int32_t>::max())
     throw BackendError("vulkan: rectify: the map has more than 2^31 entries");
   // An empty source reads 0 everywhere: the shader's bounds tests see width or height 0.
@@ -53,20 +51,8 @@ void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
 void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                   const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();
-  if (levels > 1 && static_cast<int>(level_offset.size()) < levels - 1)
-    throw BackendError("vulkan: build_pyramid: " + std::to_string(level_offset.size()) +
-                       " level offsets given for " + std::to_string(levels) + " levels (need levels - 1)");
-  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "build_pyramid", "level");
-  for (int n = 1; n < levels; ++n) {
-    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
-    const std::int64_t offset = level_offset[static_cast<std::size_t>(n - 1)];
-    if (offset < 0)
-      throw BackendError("vulkan: build_pyramid: negative resize table offset " + std::to_string(offset) +
-                         " for level " + std::to_string(n));
-    const std::int64_t table_end = offset + 2 * static_cast<std::int64_t>(level.width) + 2 * level.height;
-    require_bytes(resize_table, table_end * 4, "build_pyramid",
-                  "the resize table of level " + std::to_string(n));
-  }
+  checks::check_pyramid(kBackend, pyramid, layout, resize_table, level_offset, /*reject_negative_offsets=*/true,
+                        kPlaneLimits);
   for (int n = 1; n < levels; ++n) {
     const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
     const Plane& level = layout.levels[static_cast<std::size_t>(n)];
@@ -83,18 +69,7 @@ void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, 
 // level ("blur_h"), then the vertical pass into `blurred`.
 void VulkanBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
                          const std::array<std::int32_t, 7>& taps) {
-  std::int32_t tap_sum = 0;
-  for (const std::int32_t t : taps) {
-    if (t < 0) throw BackendError("vulkan: blur: taps must be non-negative (see build_blur_taps())");
-    tap_sum += t;
-  }
-  if (tap_sum != 256)
-    throw BackendError("vulkan: blur: taps sum to " + std::to_string(tap_sum) +
-                       ", must sum to 256 (see build_blur_taps())");
-  for (const Plane& level : layout.levels) {
-    require_plane_inside(pyramid, level, 1, "blur", "pyramid level");
-    require_plane_inside(blurred, level, 1, "blur", "blurred level");
-  }
+  checks::check_blur(kBackend, pyramid, layout, blurred, taps, kPlaneLimits);
   BlurParams params{};
   std::uint64_t max_width = 0, rows = 0;
   params.layout = rows_of_levels(layout, "blur", max_width, rows);

@@ -45,9 +45,7 @@ static_assert(sizeof(StereoCandidatesParams) == 208 + 96 + 32 &&
               sizeof(StereoCandidatesParams) <= kMaxParamsBytes);
 static_assert(sizeof(StereoFinishParams) <= kMaxPushBytes && sizeof(ProjectionParams) == 64);
 
-[[noreturn]] void fail(const char* call, const std::string& what) {
-  throw BackendError(std::string("vulkan: ") + call + ": " + what);
-}
+[[noreturn]] void fail(const char* call, const std::string& what) { checks::fail(kBackend, call, what); }
 
 /// The first `n` values of a per-level table (the rest zero).
 void first_levels(const std::vector<std::int32_t>& v, std::size_t n, std::int32_t (&out)[kMaxLevels]) {
@@ -66,10 +64,7 @@ void VulkanBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right
                                  const Buffer& right_descriptors, const StereoParams& params,
                                  Buffer& matches) {
   const auto levels = static_cast<std::size_t>(layout.num_levels());
-  if (params.scales_q16.size() < levels || params.row_radius_q8.size() < levels)
-    fail("stereo_match", "the layout has " + std::to_string(levels) + " levels but scales_q16 has " +
-                             std::to_string(params.scales_q16.size()) + " and row_radius_q8 " +
-                             std::to_string(params.row_radius_q8.size()) + " entries; give one per level");
+  checks::check_stereo_tables(kBackend, layout, params);
   if (layout.element_bytes != 1) fail("stereo_match", "the pyramids must hold 8-bit pixels");
   StereoCandidatesParams p{};
   p.layout = to_glsl(layout, "stereo_match");  // refuses more than 12 levels
@@ -122,11 +117,7 @@ void VulkanBackend::projection_match(ConstDeviceList keypoints, const Buffer& ke
       keypoints, {{keypoints.items, sizeof(Keypoint)}, {&keypoint_descriptors, sizeof(Descriptor)}},
       "projection_match");
   // Never past the end of a query-side buffer (the cpu backend trusts num_queries).
-  std::int64_t n = std::max(num_queries, 0);
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(queries.size_bytes() / sizeof(ProjectionQuery)));
-  n = std::min<std::int64_t>(n,
-                             static_cast<std::int64_t>(query_descriptors.size_bytes() / sizeof(Descriptor)));
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(results.size_bytes() / sizeof(ProjectionResult)));
+  const std::int64_t n = checks::usable_queries(num_queries, queries, query_descriptors, results);
   if (n == 0) return;
   // A keypoint's level is a uint8: scales past 256 entries name no level.
   const std::size_t num_scales = std::min<std::size_t>(scales_q16.size(), 256);

@@ -1,5 +1,6 @@
 // Host mirrors of the structs of shaders/vulkan/common.glsl (std430 layout, passed as push
-// constants or in the parameter buffer), and the argument checks the kernel files share.
+// constants or in the parameter buffer), and the argument checks the kernel files share (those of
+// porta/kernel_checks.hpp with the Vulkan backend's name and plane limits).
 // Internal to backends/vulkan.
 #pragma once
 
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/layout.hpp"
 
 namespace porta::vulkan {
@@ -64,37 +66,23 @@ inline GlslCells to_glsl(const CellLayout& cells, const char* kernel) {
   return c;
 }
 
-/// A kernel reading or writing outside its buffer would corrupt device memory silently; say which.
-/// Shaders index with int32, so planes must also end below 2^31 bytes.
+inline constexpr const char* kBackend = "vulkan";
+/// Shaders index planes of their element type with int32, so planes must also end below 2^31 bytes.
+inline constexpr checks::PlaneLimits kPlaneLimits{.aligned = true,
+                                                  .max_end = std::numeric_limits<std::int32_t>::max()};
+
 inline void require_plane_inside(const Buffer& buffer, const Plane& plane, int element_bytes,
                                  const char* kernel, const char* what) {
-  if (plane.width <= 0 || plane.height <= 0) return;
-  const std::int64_t end_bytes =
-      plane.offset_bytes +
-      (static_cast<std::int64_t>(plane.height - 1) * plane.pitch + plane.width) * element_bytes;
-  if (plane.offset_bytes < 0 || plane.pitch < plane.width || plane.offset_bytes % element_bytes != 0 ||
-      end_bytes > static_cast<std::int64_t>(buffer.size_bytes()) ||
-      end_bytes > std::numeric_limits<std::int32_t>::max())
-    throw BackendError(std::string("vulkan: ") + kernel + ": " + what + " plane (offset " +
-                       std::to_string(plane.offset_bytes) + " bytes, " + std::to_string(plane.width) + "x" +
-                       std::to_string(plane.height) + ", pitch " + std::to_string(plane.pitch) +
-                       ") does not fit its buffer of " + std::to_string(buffer.size_bytes()) + " bytes");
+  checks::check_plane(kBackend, kernel, what, buffer, plane, element_bytes, kPlaneLimits);
 }
 
 inline void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel,
                           const std::string& what) {
-  if (bytes > static_cast<std::int64_t>(buffer.size_bytes()))
-    throw BackendError(std::string("vulkan: ") + kernel + ": " + what + " needs " + std::to_string(bytes) +
-                       " bytes but its buffer has " + std::to_string(buffer.size_bytes()));
+  checks::check_bytes(kBackend, kernel, what, buffer, bytes);
 }
 
 inline void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, const char* kernel) {
-  bool same = a.num_levels() == b.num_levels();
-  for (std::size_t n = 0; same && n < a.levels.size(); ++n)
-    same = a.levels[n].width == b.levels[n].width && a.levels[n].height == b.levels[n].height;
-  if (!same)
-    throw BackendError(std::string("vulkan: ") + kernel +
-                       ": the two layouts do not have the same level sizes");
+  checks::check_same_level_sizes(kBackend, kernel, a, b);
 }
 
 /// `layout` with empty levels given no rows, for shaders that lay the rows of all levels end to
@@ -116,25 +104,14 @@ inline GlslLevels rows_of_levels(const PyramidLayout& layout, const char* kernel
   return l;
 }
 
-/// The list slots a kernel launched over a device list's capacity may touch: the capacity, but
-/// never more records than each of `buffers` (with its record size) holds. The cpu backend reads
-/// only `count` records, so a capacity larger than a buffer is no error as long as the count fits;
-/// the device must not read past the end. 0 for a list without items or count. Also refuses a
-/// count that does not lie inside its buffer (the shaders read it at a uint32 byte offset).
+/// The list slots a kernel launched over a device list's capacity may touch
+/// (checks::usable_capacity), after refusing a count that does not lie inside its buffer (the
+/// shaders read it at a uint32 byte offset).
 inline int usable_capacity(const ConstDeviceList& list,
                            std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers,
                            const char* kernel) {
-  if (list.count != nullptr &&
-      (list.count_offset_bytes < 0 || list.count_offset_bytes > std::numeric_limits<std::int32_t>::max() ||
-       static_cast<std::uint64_t>(list.count_offset_bytes) + 4 > list.count->size_bytes()))
-    throw BackendError(std::string("vulkan: ") + kernel + ": the list's count at byte " +
-                       std::to_string(list.count_offset_bytes) + " lies outside its buffer of " +
-                       std::to_string(list.count->size_bytes()) + " bytes");
-  if (list.items == nullptr || list.count == nullptr || list.capacity <= 0) return 0;
-  std::int64_t n = list.capacity;
-  for (const auto& [buffer, record_bytes] : buffers)
-    n = std::min<std::int64_t>(n, static_cast<std::int64_t>(buffer->size_bytes() / record_bytes));
-  return static_cast<int>(n);
+  checks::check_count_offset(kBackend, kernel, list, std::numeric_limits<std::int32_t>::max());
+  return checks::usable_capacity(list, buffers);
 }
 
 }  // namespace porta::vulkan

@@ -1,0 +1,108 @@
+// Host-side argument checks shared by every backend: what a kernel indexes with is checked before
+// it runs, so that a bad argument is a BackendError naming the backend, the kernel and the
+// argument ("<backend>: <kernel>: ...") instead of corrupted memory or a device fault. Plain C++;
+// no device API.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <initializer_list>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "porta/backend.hpp"
+#include "porta/layout.hpp"
+
+namespace porta::checks {
+
+/// Throws BackendError("<backend>: <kernel>: <what>").
+[[noreturn]] void fail(std::string_view backend, std::string_view kernel, const std::string& what);
+
+/// What a backend's kernels can address beyond "inside the buffer": whether a plane's offset must
+/// be a multiple of its element size, and the largest offset and end (in bytes) they can index.
+struct PlaneLimits {
+  bool aligned = false;
+  std::int64_t max_offset = std::numeric_limits<std::int64_t>::max();
+  std::int64_t max_end = std::numeric_limits<std::int64_t>::max();
+};
+
+/// A non-empty `plane` of `element_bytes` elements must lie inside `buffer` (and within `limits`).
+void check_plane(std::string_view backend, std::string_view kernel, std::string_view what, const Buffer& buffer,
+                 const Plane& plane, int element_bytes, const PlaneLimits& limits = {});
+
+/// `buffer` must hold at least `bytes` bytes.
+void check_bytes(std::string_view backend, std::string_view kernel, std::string_view what, const Buffer& buffer,
+                 std::int64_t bytes);
+
+/// `a` and `b` must have the same number of levels, of the same sizes.
+void check_same_level_sizes(std::string_view backend, std::string_view kernel, const PyramidLayout& a,
+                            const PyramidLayout& b);
+
+/// build_pyramid's arguments: one resize table offset per level below the first, every level inside
+/// `pyramid`, and each level's table inside `resize_table`; a negative table offset is refused
+/// (before its size is checked) where `reject_negative_offsets`.
+void check_pyramid(std::string_view backend, const Buffer& pyramid, const PyramidLayout& layout,
+                   const Buffer& resize_table, const std::vector<std::int32_t>& level_offset,
+                   bool reject_negative_offsets, const PlaneLimits& limits = {});
+
+/// rectify's arguments: both planes inside their buffers, a map of (x, y) int32 pairs for every
+/// destination pixel.
+void check_rectify(std::string_view backend, const Buffer& src, const Plane& src_plane, const Buffer& map,
+                   const Buffer& dst, const Plane& dst_plane, const PlaneLimits& limits = {});
+
+/// blur's arguments: taps non-negative and summing to 256 (build_blur_taps()), every level inside
+/// both `pyramid` and `blurred`.
+void check_blur(std::string_view backend, const Buffer& pyramid, const PyramidLayout& layout,
+                const Buffer& blurred, const std::array<std::int32_t, 7>& taps, const PlaneLimits& limits = {});
+
+/// orient's tables: 1 to 256 bins (angle_bin is a uint8), a boundary table of `bins` (x, y) int32
+/// pairs, umax entries inside [0, kOrientationRadius].
+void check_orient_tables(std::string_view backend, const std::array<int, 16>& umax, const Buffer& boundaries,
+                         int bins);
+
+/// The pyramid of `layout` must hold 8-bit pixels.
+void check_8bit_pixels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout);
+
+/// orb_describe's number of angle bins: as many whole bins of kOrbPairs (x, y) int8 pairs as
+/// `pattern` holds, at most 256 (angle_bin can name no more); refuses a table without one.
+int orb_pattern_bins(std::string_view backend, const Buffer& pattern);
+
+/// stereo_match's per-level tables: scales_q16 and row_radius_q8 hold one entry per level.
+void check_stereo_tables(std::string_view backend, const PyramidLayout& layout, const StereoParams& params);
+
+/// projection_match's queries a kernel may touch: num_queries (0 when negative), but never more
+/// than `queries`, `query_descriptors` or `results` hold (the cpu backend trusts num_queries).
+std::int64_t usable_queries(int num_queries, const Buffer& queries, const Buffer& query_descriptors,
+                            const Buffer& results);
+
+/// fast_crf's border: at least 3, the radius of the FAST circle.
+void check_fast_edge(std::string_view backend, const FastParams& params);
+
+/// compact_keypoints' arguments: a count buffer holding the count at a non-negative offset, a cell
+/// array of max(total_cells, 0) keypoints. Returns the records that may be written: the capacity,
+/// but never past the end of the items buffer (0 without one).
+std::int64_t compact_capacity(std::string_view backend, const Buffer& cells, int total_cells,
+                              const DeviceList& out);
+
+/// orb_describe's slots on a device: `capacity` (the list's usable capacity), but no more than
+/// `descriptors` holds. Only when the buffer is smaller is the count read on the host (one
+/// round-trip through `device`), to refuse a list that does not fit as the cpu backend does.
+int descriptor_capacity(Backend& device, std::string_view backend, const ConstDeviceList& keypoints, int capacity,
+                        const Buffer& descriptors);
+
+/// A device list's count (a uint32 at count_offset_bytes) must lie inside its buffer, at an offset
+/// of at most `max_offset`; no check for a list without a count buffer.
+void check_count_offset(std::string_view backend, std::string_view kernel, const ConstDeviceList& list,
+                        std::int64_t max_offset = std::numeric_limits<std::int64_t>::max());
+
+/// The list slots a kernel launched over a device list's capacity may touch: the capacity, but
+/// never more records than each of `buffers` (with its record size) holds. The cpu backend reads
+/// only `count` records, so a capacity larger than a buffer is no error as long as the count fits;
+/// the device must not read past the end. 0 for a list without items or count.
+int usable_capacity(const ConstDeviceList& list,
+                    std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers);
+
+}  // namespace porta::checks

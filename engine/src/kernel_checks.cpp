@@ -1,0 +1,187 @@
+#include "porta/kernel_checks.hpp"
+
+#include <algorithm>
+
+#include "porta/tables.hpp"
+
+namespace porta::checks {
+
+void fail(std::string_view backend, std::string_view kernel, const std::string& what) {
+  std::string message;
+  message.reserve(backend.size() + kernel.size() + what.size() + 4);
+  message.append(backend).append(": ").append(kernel).append(": ").append(what);
+  throw BackendError(message);
+}
+
+void check_plane(std::string_view backend, std::string_view kernel, std::string_view what, const Buffer& buffer,
+                 const Plane& plane, int element_bytes, const PlaneLimits& limits) {
+  if (plane.width <= 0 || plane.height <= 0) return;
+  const std::int64_t end_bytes =
+      plane.offset_bytes +
+      (static_cast<std::int64_t>(plane.height - 1) * plane.pitch + plane.width) * element_bytes;
+  if (plane.offset_bytes < 0 || plane.pitch < plane.width ||
+      (limits.aligned && plane.offset_bytes % element_bytes != 0) ||
+      end_bytes > static_cast<std::int64_t>(buffer.size_bytes()) || plane.offset_bytes > limits.max_offset ||
+      end_bytes > limits.max_end)
+    fail(backend, kernel,
+         std::string(what) + " plane (offset " + std::to_string(plane.offset_bytes) + " bytes, " +
+             std::to_string(plane.width) + "x" + std::to_string(plane.height) + ", pitch " +
+             std::to_string(plane.pitch) + ") does not fit its buffer of " + std::to_string(buffer.size_bytes()) +
+             " bytes");
+}
+
+void check_bytes(std::string_view backend, std::string_view kernel, std::string_view what, const Buffer& buffer,
+                 std::int64_t bytes) {
+  if (bytes > static_cast<std::int64_t>(buffer.size_bytes()))
+    fail(backend, kernel,
+         std::string(what) + " needs " + std::to_string(bytes) + " bytes but its buffer has " +
+             std::to_string(buffer.size_bytes()));
+}
+
+void check_same_level_sizes(std::string_view backend, std::string_view kernel, const PyramidLayout& a,
+                            const PyramidLayout& b) {
+  bool same = a.levels.size() == b.levels.size();
+  for (std::size_t n = 0; same && n < a.levels.size(); ++n)
+    same = a.levels[n].width == b.levels[n].width && a.levels[n].height == b.levels[n].height;
+  if (!same) fail(backend, kernel, "the two layouts do not have the same level sizes");
+}
+
+void check_pyramid(std::string_view backend, const Buffer& pyramid, const PyramidLayout& layout,
+                   const Buffer& resize_table, const std::vector<std::int32_t>& level_offset,
+                   bool reject_negative_offsets, const PlaneLimits& limits) {
+  const int levels = layout.num_levels();
+  if (levels > 1 && static_cast<int>(level_offset.size()) < levels - 1)
+    fail(backend, "build_pyramid",
+         std::to_string(level_offset.size()) + " level offsets given for " + std::to_string(levels) +
+             " levels (need levels - 1)");
+  for (const Plane& level : layout.levels) check_plane(backend, "build_pyramid", "level", pyramid, level, 1, limits);
+  for (int n = 1; n < levels; ++n) {
+    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
+    const std::int64_t offset = level_offset[static_cast<std::size_t>(n - 1)];
+    if (reject_negative_offsets && offset < 0)
+      fail(backend, "build_pyramid",
+           "negative resize table offset " + std::to_string(offset) + " for level " + std::to_string(n));
+    check_bytes(backend, "build_pyramid", "the resize table of level " + std::to_string(n), resize_table,
+                (offset + 2 * static_cast<std::int64_t>(level.width) + 2 * level.height) * 4);
+  }
+}
+
+void check_rectify(std::string_view backend, const Buffer& src, const Plane& src_plane, const Buffer& map,
+                   const Buffer& dst, const Plane& dst_plane, const PlaneLimits& limits) {
+  check_plane(backend, "rectify", "source", src, src_plane, 1, limits);
+  check_plane(backend, "rectify", "destination", dst, dst_plane, 1, limits);
+  check_bytes(backend, "rectify", "the map", map,
+              static_cast<std::int64_t>(dst_plane.width) * dst_plane.height * 2 * 4);
+}
+
+void check_blur(std::string_view backend, const Buffer& pyramid, const PyramidLayout& layout,
+                const Buffer& blurred, const std::array<std::int32_t, 7>& taps, const PlaneLimits& limits) {
+  std::int32_t tap_sum = 0;
+  for (const std::int32_t t : taps) {
+    if (t < 0) fail(backend, "blur", "taps must be non-negative (see build_blur_taps())");
+    tap_sum += t;
+  }
+  if (tap_sum != 256)
+    fail(backend, "blur", "taps sum to " + std::to_string(tap_sum) + ", must sum to 256 (see build_blur_taps())");
+  for (const Plane& level : layout.levels) {
+    check_plane(backend, "blur", "pyramid level", pyramid, level, 1, limits);
+    check_plane(backend, "blur", "blurred level", blurred, level, 1, limits);
+  }
+}
+
+void check_orient_tables(std::string_view backend, const std::array<int, 16>& umax, const Buffer& boundaries,
+                         int bins) {
+  // angle_bin is a uint8, so at most 256 bins can be told apart.
+  if (bins < 1 || bins > 256) fail(backend, "orient", "bins = " + std::to_string(bins) + " is outside [1, 256]");
+  if (boundaries.size_bytes() < static_cast<std::size_t>(bins) * 2 * sizeof(std::int32_t))
+    fail(backend, "orient", "the boundary table holds fewer than " + std::to_string(bins) + " (x, y) pairs");
+  for (int dy = 0; dy <= kOrientationRadius; ++dy) {
+    const int u = umax[static_cast<std::size_t>(dy)];
+    if (u < 0 || u > kOrientationRadius)
+      fail(backend, "orient", "umax[" + std::to_string(dy) + "] = " + std::to_string(u) + " is outside [0, 15]");
+  }
+}
+
+void check_8bit_pixels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout) {
+  if (layout.element_bytes != 1) fail(backend, kernel, "the pyramid must hold 8-bit pixels");
+}
+
+int orb_pattern_bins(std::string_view backend, const Buffer& pattern) {
+  constexpr std::size_t kBinBytes = static_cast<std::size_t>(kOrbPairs) * 4;
+  const std::size_t table_bins = pattern.size_bytes() / kBinBytes;
+  const int bins = static_cast<int>(table_bins < 256 ? table_bins : 256);
+  if (bins == 0) fail(backend, "orb_describe", "the pattern table holds no bin of 256 pairs");
+  return bins;
+}
+
+void check_stereo_tables(std::string_view backend, const PyramidLayout& layout, const StereoParams& params) {
+  const auto levels = static_cast<std::size_t>(layout.num_levels());
+  if (params.scales_q16.size() < levels || params.row_radius_q8.size() < levels)
+    fail(backend, "stereo_match",
+         "the layout has " + std::to_string(levels) + " levels but scales_q16 has " +
+             std::to_string(params.scales_q16.size()) + " and row_radius_q8 " +
+             std::to_string(params.row_radius_q8.size()) + " entries; give one per level");
+}
+
+std::int64_t usable_queries(int num_queries, const Buffer& queries, const Buffer& query_descriptors,
+                            const Buffer& results) {
+  std::int64_t n = std::max(num_queries, 0);
+  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(queries.size_bytes() / sizeof(ProjectionQuery)));
+  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(query_descriptors.size_bytes() / sizeof(Descriptor)));
+  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(results.size_bytes() / sizeof(ProjectionResult)));
+  return n;
+}
+
+void check_fast_edge(std::string_view backend, const FastParams& params) {
+  if (params.edge < 3)
+    fail(backend, "fast_crf",
+         "edge " + std::to_string(params.edge) + " is below 3, the radius of the FAST circle; allowed: >= 3");
+}
+
+std::int64_t compact_capacity(std::string_view backend, const Buffer& cells, int total_cells,
+                              const DeviceList& out) {
+  if (out.count == nullptr) fail(backend, "compact_keypoints", "the list has no count buffer");
+  if (out.count_offset_bytes < 0)
+    fail(backend, "compact_keypoints", "negative count offset " + std::to_string(out.count_offset_bytes));
+  check_bytes(backend, "compact_keypoints", "the count", *out.count, out.count_offset_bytes + 4);
+  const int total = std::max(total_cells, 0);
+  check_bytes(backend, "compact_keypoints", "the cell array", cells,
+              static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)));
+  if (out.items == nullptr) return 0;
+  return std::min<std::int64_t>(std::max(out.capacity, 0),
+                                static_cast<std::int64_t>(out.items->size_bytes() / sizeof(Keypoint)));
+}
+
+int descriptor_capacity(Backend& device, std::string_view backend, const ConstDeviceList& keypoints, int capacity,
+                        const Buffer& descriptors) {
+  const auto fits = static_cast<int>(
+      std::min<std::size_t>(descriptors.size_bytes() / sizeof(Descriptor), static_cast<std::size_t>(capacity)));
+  if (fits >= capacity) return capacity;
+  std::uint32_t count = 0;
+  device.download(*keypoints.count, static_cast<std::size_t>(keypoints.count_offset_bytes), &count, sizeof(count));
+  const std::int64_t n = std::min<std::int64_t>(count, keypoints.capacity);
+  if (n > fits)
+    fail(backend, "orb_describe", "the descriptor buffer holds fewer than " + std::to_string(n) + " descriptors");
+  return fits;
+}
+
+void check_count_offset(std::string_view backend, std::string_view kernel, const ConstDeviceList& list,
+                        std::int64_t max_offset) {
+  if (list.count != nullptr &&
+      (list.count_offset_bytes < 0 || list.count_offset_bytes > max_offset ||
+       static_cast<std::uint64_t>(list.count_offset_bytes) + 4 > list.count->size_bytes()))
+    fail(backend, kernel,
+         "the list's count at byte " + std::to_string(list.count_offset_bytes) + " lies outside its buffer of " +
+             std::to_string(list.count->size_bytes()) + " bytes");
+}
+
+int usable_capacity(const ConstDeviceList& list,
+                    std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers) {
+  if (list.items == nullptr || list.count == nullptr || list.capacity <= 0) return 0;
+  std::int64_t n = list.capacity;
+  for (const auto& [buffer, record_bytes] : buffers)
+    n = std::min<std::int64_t>(n, static_cast<std::int64_t>(buffer->size_bytes() / record_bytes));
+  return static_cast<int>(n);
+}
+
+}  // namespace porta::checks
