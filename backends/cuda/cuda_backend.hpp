@@ -143,29 +143,7 @@ class CudaBackend final : public Backend {
   void use_queue(int queue) override;
   void join_queues() override;
 
-  void rectify(const Buffer& src, const Plane& src_plane, const Buffer& map, Buffer& dst,
-               const Plane& dst_plane) override;
-  void build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
-                     const std::vector<std::int32_t>& level_offset) override;
-  void fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
-                const PyramidLayout& response_layout, const FastParams& params) override;
-  void cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
-                  const CellLayout& cell_layout, Buffer& cells) override;
-  void pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) override;
-  void compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) override;
-  void orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
-              const std::array<int, 16>& umax, const Buffer& boundaries, int bins) override;
-  void blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
-            const std::array<std::int32_t, 7>& taps) override;
-  void orb_describe(const Buffer& blurred, const PyramidLayout& layout, ConstDeviceList keypoints,
-                    const Buffer& pattern, Buffer& descriptors) override;
-  void stereo_match(const Buffer& left_pyramid, const Buffer& right_pyramid, const PyramidLayout& layout,
-                    ConstDeviceList left_keypoints, const Buffer& left_descriptors,
-                    ConstDeviceList right_keypoints, const Buffer& right_descriptors,
-                    const StereoParams& params, Buffer& matches) override;
-  void projection_match(ConstDeviceList keypoints, const Buffer& keypoint_descriptors, const Buffer& queries,
-                        const Buffer& query_descriptors, int num_queries,
-                        const std::vector<std::int32_t>& scales_q16, Buffer& results) override;
+  PORTA_BACKEND_KERNEL_OVERRIDES;
 
   // ---- tuning (environment at construction; settable for comparisons, e.g. the ablation tool) ----
   CullVariant cull_variant() const { return cull_variant_; }

@@ -180,3 +180,38 @@ class Backend {
 };
 
 }  // namespace porta
+
+/// Declares, inside a backend class, the overrides of every kernel method above (one list for all
+/// backends, so that a new kernel is declared once). Each backend defines them in its *_kernels
+/// sources.
+#define PORTA_BACKEND_KERNEL_OVERRIDES                                                                \
+  void rectify(const ::porta::Buffer& src, const ::porta::Plane& src_plane, const ::porta::Buffer& map, \
+               ::porta::Buffer& dst, const ::porta::Plane& dst_plane) override;                      \
+  void build_pyramid(::porta::Buffer& pyramid, const ::porta::PyramidLayout& layout,                  \
+                     const ::porta::Buffer& resize_table, const std::vector<std::int32_t>& level_offset) \
+      override;                                                                                       \
+  void fast_crf(const ::porta::Buffer& pyramid, const ::porta::PyramidLayout& layout,                 \
+                const ::porta::Buffer& lut, ::porta::Buffer& responses,                               \
+                const ::porta::PyramidLayout& response_layout, const ::porta::FastParams& params) override; \
+  void cull_cells(const ::porta::Buffer& responses, const ::porta::PyramidLayout& response_layout,    \
+                  const ::porta::CellLayout& cell_layout, ::porta::Buffer& cells) override;           \
+  void pfa_filter(::porta::Buffer& cells, const ::porta::CellLayout& cell_layout,                     \
+                  const ::porta::PfaParams& params) override;                                         \
+  void compact_keypoints(const ::porta::Buffer& cells, int total_cells, ::porta::DeviceList out) override; \
+  void orient(const ::porta::Buffer& pyramid, const ::porta::PyramidLayout& layout,                   \
+              ::porta::DeviceList keypoints, const std::array<int, 16>& umax,                         \
+              const ::porta::Buffer& boundaries, int bins) override;                                  \
+  void blur(const ::porta::Buffer& pyramid, const ::porta::PyramidLayout& layout,                     \
+            ::porta::Buffer& blurred, const std::array<std::int32_t, 7>& taps) override;              \
+  void orb_describe(const ::porta::Buffer& blurred, const ::porta::PyramidLayout& layout,             \
+                    ::porta::ConstDeviceList keypoints, const ::porta::Buffer& pattern,               \
+                    ::porta::Buffer& descriptors) override;                                           \
+  void stereo_match(const ::porta::Buffer& left_pyramid, const ::porta::Buffer& right_pyramid,        \
+                    const ::porta::PyramidLayout& layout, ::porta::ConstDeviceList left_keypoints,    \
+                    const ::porta::Buffer& left_descriptors, ::porta::ConstDeviceList right_keypoints, \
+                    const ::porta::Buffer& right_descriptors, const ::porta::StereoParams& params,    \
+                    ::porta::Buffer& matches) override;                                               \
+  void projection_match(::porta::ConstDeviceList keypoints, const ::porta::Buffer& keypoint_descriptors, \
+                        const ::porta::Buffer& queries, const ::porta::Buffer& query_descriptors,     \
+                        int num_queries, const std::vector<std::int32_t>& scales_q16,                 \
+                        ::porta::Buffer& results) override
