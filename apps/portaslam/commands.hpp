@@ -10,6 +10,13 @@ namespace porta::app {
 int backends_command(const std::vector<std::string>& args);
 int features_command(const std::vector<std::string>& args);
 
+/// `portaslam render`: renders a stereo sequence with exact ground truth (slam/render).
+int render_command(const std::vector<std::string>& args);
+std::string render_usage();
+/// `portaslam eval`: evaluates an estimated trajectory against ground truth (slam/eval).
+int eval_command(const std::vector<std::string>& args);
+std::string eval_usage();
+
 /// Usage text of `portaslam features` (also shown by `portaslam features --help`).
 std::string features_usage();
 

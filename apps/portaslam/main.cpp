@@ -22,7 +22,15 @@ const char* const kUsage =
     "  features   detect ORB features (and stereo matches) in an image or a rectified stereo pair,\n"
     "             print counts and per-stage times, and write an annotated PNG;\n"
     "             with no image it runs on a built-in synthetic stereo pair\n"
-    "  help       show this text (also: portaslam --help); `portaslam help COMMAND` for details\n"
+  #if PORTA_APPS_HAVE_RENDER
+  "  render     render a rectified stereo sequence of a textured street or room along a real or\n"
+  "             built-in camera path, with exact ground truth (KITTI or EuRoC layout)\n"
+#endif
+#if PORTA_APPS_HAVE_EVAL
+  "  eval       evaluate an estimated trajectory against ground truth: ATE, RPE, KITTI\n"
+  "             relative errors; JSON report and PNG plots\n"
+#endif
+  "  help       show this text (also: portaslam --help); `portaslam help COMMAND` for details\n"
     "\n"
     "Examples:\n"
     "  portaslam backends\n"
@@ -47,6 +55,18 @@ int help(const std::vector<std::string>& args) {
                  "unavailable.\n";
     return 0;
   }
+#if PORTA_APPS_HAVE_RENDER
+  if (!args.empty() && args[0] == "render") {
+    std::cout << porta::app::render_usage();
+    return 0;
+  }
+#endif
+#if PORTA_APPS_HAVE_EVAL
+  if (!args.empty() && args[0] == "eval") {
+    std::cout << porta::app::eval_usage();
+    return 0;
+  }
+#endif
   std::cout << kUsage;
   return 0;
 }
@@ -65,6 +85,12 @@ int main(int argc, char** argv) {
   if (command == "backends") return porta::app::backends_command(rest);
   if (command == "features") return porta::app::features_command(rest);
   if (command == "bench") return porta::app::bench_command(rest);
+#if PORTA_APPS_HAVE_RENDER
+  if (command == "render") return porta::app::render_command(rest);
+#endif
+#if PORTA_APPS_HAVE_EVAL
+  if (command == "eval") return porta::app::eval_command(rest);
+#endif
   std::cerr << "portaslam: unknown command '" << command << "'\n\n" << kUsage;
   return 2;
 }
