@@ -1,0 +1,133 @@
+// The SLAM map: map points, keyframes with their covisibility graph and spanning tree, and the Map
+// that owns them (DESIGN.md §6).
+//
+// Ownership: the Map owns every KeyFrame and MapPoint (unique_ptr) for its whole life; everything
+// else holds plain non-owning pointers. Culled objects are flagged bad, unlinked, and kept until the
+// Map is destroyed, so a pointer held by another thread never dangles.
+//
+// Locking (one scheme, no per-object locks): Map::mutex guards every KeyFrame and MapPoint field
+// and the Map's lists. Tracking and local mapping lock it for each read-modify step; long work
+// (bundle adjustment) copies what it needs under the lock, computes without it, and writes back
+// under it, skipping objects that turned bad meanwhile. Methods below expect the caller to hold
+// the lock unless they say otherwise.
+//
+// Determinism: every container that is iterated is ordered by object id (never by pointer value),
+// so the same input gives the same map and trajectory in the deterministic mode.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "porta/keypoint.hpp"
+#include "porta/slam/frame.hpp"
+
+namespace porta::slam {
+
+/// Orders pointers to map objects by their id.
+struct ById {
+  template <class T>
+  bool operator()(const T* a, const T* b) const {
+    return a->id < b->id;
+  }
+};
+
+/// Hamming distance of two 256-bit descriptors.
+int hamming_distance(const Descriptor& a, const Descriptor& b);
+
+class MapPoint {
+ public:
+  MapPoint(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t first_frame_id);
+
+  const std::uint64_t id;
+  Eigen::Vector3d position;
+  Descriptor descriptor;                        ///< the observation with the least median distance to the others
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< mean viewing direction (unit)
+  double min_distance = 0.0, max_distance = 0.0;     ///< scale-invariance distance range
+  std::map<KeyFrame*, int, ById> observations;       ///< keyframe -> feature index
+  KeyFrame* reference = nullptr;
+  const std::uint64_t first_keyframe_id;
+  const std::uint64_t first_frame_id;
+  int visible = 1;   ///< frames whose view frustum contained it
+  int found = 1;     ///< frames that matched it
+  bool bad = false;
+  MapPoint* replaced_by = nullptr;
+
+  int num_observations() const;  ///< stereo observations count 2, as in ORB-SLAM2
+  double found_ratio() const { return static_cast<double>(found) / visible; }
+  /// Recomputes `descriptor` from the observing keyframes' descriptors.
+  void update_descriptor();
+  /// Recomputes `normal` and the distance range from the observing keyframes' centres.
+  void update_normal_and_depth(const ScalePyramid& pyramid);
+  /// Pyramid level at which a point at `distance` should be seen (ORB-SLAM2's PredictScale).
+  int predict_level(double distance, const ScalePyramid& pyramid) const;
+};
+
+class KeyFrame {
+ public:
+  KeyFrame(std::uint64_t id, const Frame& frame);
+
+  const std::uint64_t id;
+  const std::uint64_t frame_id;
+  const double time_s;
+  const std::shared_ptr<const FrameFeatures> features;
+  const FeatureGrid grid;
+  SE3 T_cw;
+  std::vector<MapPoint*> points;  ///< per feature, nullptr = none
+  bool bad = false;
+
+  // Covisibility graph: weight = number of map points seen by both keyframes.
+  std::map<KeyFrame*, int, ById> connections;
+  KeyFrame* parent = nullptr;  ///< spanning tree: the keyframe it shares most points with (at creation)
+  std::map<KeyFrame*, int, ById> children;  ///< value unused (kept for ordered iteration)
+
+  Eigen::Vector3d center() const { return T_cw.inverse().translation(); }
+  /// Map points with at least `min_observations` observations (0: all good points).
+  int tracked_points(int min_observations) const;
+  /// Recomputes `connections` from the map points and updates the other side of each edge.
+  /// Edges need at least `min_weight` shared points (ORB-SLAM2: 15; the best one is always kept).
+  /// Sets the parent the first time a connection appears.
+  void update_connections(int min_weight = 15);
+  /// Up to `n` neighbours by decreasing weight (ties: smaller id first).
+  std::vector<KeyFrame*> best_covisibles(std::size_t n) const;
+  /// Neighbours with weight >= `min_weight`, by decreasing weight.
+  std::vector<KeyFrame*> covisibles_with_weight(int min_weight) const;
+  void erase_connection(KeyFrame* other);
+};
+
+class Map {
+ public:
+  /// Guards all map data (see the file comment).
+  mutable std::mutex mutex;
+
+  KeyFrame* add_keyframe(const Frame& frame);
+  MapPoint* add_point(const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t frame_id);
+
+  /// Links point and keyframe feature both ways.
+  static void add_observation(MapPoint* point, KeyFrame* keyframe, int feature);
+  /// Unlinks both ways; a point left with fewer than 3 observations (stereo counted twice) goes bad,
+  /// as in ORB-SLAM2.
+  static void erase_observation(MapPoint* point, KeyFrame* keyframe);
+  /// Flags a point bad and unlinks it from every keyframe.
+  static void set_bad(MapPoint* point);
+  /// Merges `point` into `into` (duplicate fusion): observations move over, `point` goes bad.
+  static void replace(MapPoint* point, MapPoint* into);
+  /// Culls a keyframe: unlinks its points and covisibility edges and re-parents its children
+  /// (each to the connected keyframe it shares most points with). Keyframe 0 is never culled.
+  static void set_bad(KeyFrame* keyframe);
+
+  /// Good keyframes / points in id order.
+  std::vector<KeyFrame*> keyframes() const;
+  std::vector<MapPoint*> points() const;
+  std::size_t num_keyframes() const;
+  std::size_t num_points() const;
+  KeyFrame* keyframe_by_id(std::uint64_t id) const;
+
+ private:
+  std::vector<std::unique_ptr<KeyFrame>> keyframes_;  // index = id
+  std::vector<std::unique_ptr<MapPoint>> points_;     // index = id
+};
+
+}  // namespace porta::slam

@@ -1,0 +1,300 @@
+#include "porta/slam/map.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <set>
+
+namespace porta::slam {
+
+int hamming_distance(const Descriptor& a, const Descriptor& b) {
+  int distance = 0;
+  for (std::size_t i = 0; i < a.bytes.size(); i += 8) {
+    std::uint64_t x = 0, y = 0;
+    for (int k = 0; k < 8; ++k) {
+      x |= static_cast<std::uint64_t>(a.bytes[i + k]) << (8 * k);
+      y |= static_cast<std::uint64_t>(b.bytes[i + k]) << (8 * k);
+    }
+    distance += std::popcount(x ^ y);
+  }
+  return distance;
+}
+
+// ---- MapPoint -------------------------------------------------------------------------------------
+
+MapPoint::MapPoint(std::uint64_t id_in, const Eigen::Vector3d& position_in, KeyFrame* reference_in,
+                   std::uint64_t first_frame_id_in)
+    : id(id_in),
+      position(position_in),
+      reference(reference_in),
+      first_keyframe_id(reference_in ? reference_in->id : 0),
+      first_frame_id(first_frame_id_in) {}
+
+int MapPoint::num_observations() const {
+  int n = 0;
+  for (const auto& [keyframe, feature] : observations) n += keyframe->features->has_depth(feature) ? 2 : 1;
+  return n;
+}
+
+void MapPoint::update_descriptor() {
+  std::vector<const Descriptor*> candidates;
+  for (const auto& [keyframe, feature] : observations) {
+    if (!keyframe->bad) candidates.push_back(&keyframe->features->descriptors[feature]);
+  }
+  if (candidates.empty()) return;
+  const std::size_t n = candidates.size();
+  std::vector<int> distances(n * n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      distances[i * n + j] = distances[j * n + i] = hamming_distance(*candidates[i], *candidates[j]);
+    }
+  }
+  int best_median = std::numeric_limits<int>::max();
+  std::size_t best = 0;
+  std::vector<int> row(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::copy(distances.begin() + static_cast<std::ptrdiff_t>(i * n),
+              distances.begin() + static_cast<std::ptrdiff_t>((i + 1) * n), row.begin());
+    std::nth_element(row.begin(), row.begin() + static_cast<std::ptrdiff_t>((n - 1) / 2), row.end());
+    const int median = row[(n - 1) / 2];
+    if (median < best_median) {  // ties keep the earliest keyframe: deterministic
+      best_median = median;
+      best = i;
+    }
+  }
+  descriptor = *candidates[best];
+}
+
+void MapPoint::update_normal_and_depth(const ScalePyramid& pyramid) {
+  if (observations.empty() || reference == nullptr) return;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (const auto& [keyframe, feature] : observations) {
+    const Eigen::Vector3d ray = position - keyframe->center();
+    if (ray.norm() > 0.0) {
+      sum += ray.normalized();
+      ++count;
+    }
+  }
+  if (count > 0 && sum.norm() > 0.0) normal = sum.normalized();
+  const auto it = observations.find(reference);
+  if (it == observations.end()) return;
+  const double distance = (position - reference->center()).norm();
+  const int level = reference->features->level[it->second];
+  const int top = std::max(0, pyramid.levels - 1);
+  max_distance = distance * pyramid.scale[std::min(level, top)];
+  min_distance = max_distance / pyramid.scale[top];
+}
+
+int MapPoint::predict_level(double distance, const ScalePyramid& pyramid) const {
+  if (!(distance > 0.0) || !(max_distance > 0.0)) return 0;
+  const double ratio = max_distance / distance;
+  const int level = static_cast<int>(std::ceil(std::log(ratio) / std::log(pyramid.scale_factor)));
+  return std::clamp(level, 0, pyramid.levels - 1);
+}
+
+// ---- KeyFrame -------------------------------------------------------------------------------------
+
+KeyFrame::KeyFrame(std::uint64_t id_in, const Frame& frame)
+    : id(id_in),
+      frame_id(frame.id),
+      time_s(frame.time_s),
+      features(frame.features),
+      grid(frame.grid),
+      T_cw(frame.T_cw),
+      points(frame.features->size(), nullptr) {}
+
+int KeyFrame::tracked_points(int min_observations) const {
+  int n = 0;
+  for (const MapPoint* point : points) {
+    if (point != nullptr && !point->bad && (min_observations <= 0 || point->num_observations() >= min_observations)) {
+      ++n;
+    }
+  }
+  return n;
+}
+
+void KeyFrame::update_connections(int min_weight) {
+  std::map<KeyFrame*, int, ById> counts;
+  for (const MapPoint* point : points) {
+    if (point == nullptr || point->bad) continue;
+    for (const auto& [other, feature] : point->observations) {
+      if (other != this && !other->bad) ++counts[other];
+    }
+  }
+  if (counts.empty()) return;
+  std::map<KeyFrame*, int, ById> kept;
+  KeyFrame* best = nullptr;
+  int best_weight = 0;
+  for (const auto& [other, weight] : counts) {
+    if (weight > best_weight) {
+      best = other;
+      best_weight = weight;
+    }
+    if (weight >= min_weight) kept[other] = weight;
+  }
+  if (kept.empty()) kept[best] = best_weight;
+  for (const auto& [other, weight] : connections) {
+    if (kept.find(other) == kept.end()) other->connections.erase(this);
+  }
+  connections = kept;
+  for (const auto& [other, weight] : connections) other->connections[this] = weight;
+  if (parent == nullptr && id != 0) {
+    parent = best;
+    best->children[this] = 0;
+  }
+}
+
+namespace {
+
+std::vector<std::pair<KeyFrame*, int>> by_weight(const std::map<KeyFrame*, int, ById>& connections) {
+  std::vector<std::pair<KeyFrame*, int>> sorted(connections.begin(), connections.end());
+  std::stable_sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+  return sorted;
+}
+
+}  // namespace
+
+std::vector<KeyFrame*> KeyFrame::best_covisibles(std::size_t n) const {
+  std::vector<KeyFrame*> out;
+  for (const auto& [keyframe, weight] : by_weight(connections)) {
+    if (out.size() >= n) break;
+    if (!keyframe->bad) out.push_back(keyframe);
+  }
+  return out;
+}
+
+std::vector<KeyFrame*> KeyFrame::covisibles_with_weight(int min_weight) const {
+  std::vector<KeyFrame*> out;
+  for (const auto& [keyframe, weight] : by_weight(connections)) {
+    if (weight < min_weight) break;
+    if (!keyframe->bad) out.push_back(keyframe);
+  }
+  return out;
+}
+
+void KeyFrame::erase_connection(KeyFrame* other) { connections.erase(other); }
+
+// ---- Map ------------------------------------------------------------------------------------------
+
+KeyFrame* Map::add_keyframe(const Frame& frame) {
+  keyframes_.push_back(std::make_unique<KeyFrame>(keyframes_.size(), frame));
+  return keyframes_.back().get();
+}
+
+MapPoint* Map::add_point(const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t frame_id) {
+  points_.push_back(std::make_unique<MapPoint>(points_.size(), position, reference, frame_id));
+  return points_.back().get();
+}
+
+void Map::add_observation(MapPoint* point, KeyFrame* keyframe, int feature) {
+  point->observations[keyframe] = feature;
+  keyframe->points[static_cast<std::size_t>(feature)] = point;
+}
+
+void Map::erase_observation(MapPoint* point, KeyFrame* keyframe) {
+  const auto it = point->observations.find(keyframe);
+  if (it == point->observations.end()) return;
+  if (keyframe->points[static_cast<std::size_t>(it->second)] == point) {
+    keyframe->points[static_cast<std::size_t>(it->second)] = nullptr;
+  }
+  point->observations.erase(it);
+  if (point->reference == keyframe) {
+    point->reference = point->observations.empty() ? nullptr : point->observations.begin()->first;
+  }
+  if (point->num_observations() <= 2) set_bad(point);
+}
+
+void Map::set_bad(MapPoint* point) {
+  point->bad = true;
+  for (const auto& [keyframe, feature] : point->observations) {
+    if (keyframe->points[static_cast<std::size_t>(feature)] == point) {
+      keyframe->points[static_cast<std::size_t>(feature)] = nullptr;
+    }
+  }
+  point->observations.clear();
+}
+
+void Map::replace(MapPoint* point, MapPoint* into) {
+  if (point == into || point == nullptr || into == nullptr) return;
+  for (const auto& [keyframe, feature] : point->observations) {
+    if (into->observations.find(keyframe) == into->observations.end()) {
+      add_observation(into, keyframe, feature);
+    } else if (keyframe->points[static_cast<std::size_t>(feature)] == point) {
+      keyframe->points[static_cast<std::size_t>(feature)] = nullptr;
+    }
+  }
+  into->found += point->found;
+  into->visible += point->visible;
+  point->observations.clear();
+  point->bad = true;
+  point->replaced_by = into;
+  into->update_descriptor();
+}
+
+void Map::set_bad(KeyFrame* keyframe) {
+  if (keyframe->id == 0 || keyframe->bad) return;
+  for (const auto& [other, weight] : keyframe->connections) other->erase_connection(keyframe);
+  for (MapPoint* point : keyframe->points) {
+    if (point != nullptr) erase_observation(point, keyframe);
+  }
+  // Re-parent the children: repeatedly give the child with the strongest edge to an already-placed
+  // keyframe (the parent first) that keyframe as parent, as ORB-SLAM2 does.
+  std::set<KeyFrame*, ById> candidates;
+  if (keyframe->parent != nullptr) candidates.insert(keyframe->parent);
+  std::map<KeyFrame*, int, ById> orphans = keyframe->children;
+  while (!orphans.empty()) {
+    KeyFrame* best_child = nullptr;
+    KeyFrame* best_parent = nullptr;
+    int best_weight = -1;
+    for (const auto& [child, unused] : orphans) {
+      if (child->bad) continue;
+      for (const auto& [neighbour, weight] : child->connections) {
+        if (candidates.count(neighbour) != 0 && weight > best_weight) {
+          best_child = child;
+          best_parent = neighbour;
+          best_weight = weight;
+        }
+      }
+    }
+    if (best_child == nullptr) break;
+    best_child->parent = best_parent;
+    best_parent->children[best_child] = 0;
+    candidates.insert(best_child);
+    orphans.erase(best_child);
+  }
+  for (const auto& [child, unused] : orphans) {  // no covisible link to the tree: hang on the parent
+    child->parent = keyframe->parent;
+    if (keyframe->parent != nullptr) keyframe->parent->children[child] = 0;
+  }
+  if (keyframe->parent != nullptr) keyframe->parent->children.erase(keyframe);
+  keyframe->children.clear();
+  keyframe->connections.clear();
+  keyframe->bad = true;
+}
+
+std::vector<KeyFrame*> Map::keyframes() const {
+  std::vector<KeyFrame*> out;
+  for (const auto& keyframe : keyframes_) {
+    if (!keyframe->bad) out.push_back(keyframe.get());
+  }
+  return out;
+}
+
+std::vector<MapPoint*> Map::points() const {
+  std::vector<MapPoint*> out;
+  for (const auto& point : points_) {
+    if (!point->bad) out.push_back(point.get());
+  }
+  return out;
+}
+
+std::size_t Map::num_keyframes() const { return keyframes().size(); }
+std::size_t Map::num_points() const { return points().size(); }
+
+KeyFrame* Map::keyframe_by_id(std::uint64_t id) const {
+  return id < keyframes_.size() ? keyframes_[id].get() : nullptr;
+}
+
+}  // namespace porta::slam
