@@ -1,0 +1,85 @@
+// Local mapping (DESIGN.md §6, after ORB-SLAM2's LocalMapping): takes the keyframes tracking
+// inserts and, for each: links its map points, culls recent bad points, creates new points by
+// triangulation with covisible keyframes, fuses duplicates with the neighbours, runs local bundle
+// adjustment (optim/local_bundle_adjustment.hpp) and culls redundant keyframes.
+//
+// It runs either in its own thread (RunMode::realtime: start()/stop()) or called by the pipeline
+// (RunMode::deterministic: process_all() after each keyframe). All map access follows the locking
+// scheme of map.hpp (Map::mutex).
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "porta/slam/frame.hpp"
+#include "porta/slam/map.hpp"
+#include "porta/slam/slam_settings.hpp"
+
+namespace porta::slam {
+
+/// Time spent per keyframe in each step (nanoseconds), for the end-of-run statistics.
+struct MappingTimes {
+  std::int64_t process_ns = 0;      ///< link points, update connections
+  std::int64_t cull_points_ns = 0;
+  std::int64_t triangulate_ns = 0;
+  std::int64_t fuse_ns = 0;
+  std::int64_t bundle_adjustment_ns = 0;
+  std::int64_t cull_keyframes_ns = 0;
+  std::int64_t total_ns = 0;
+};
+
+class LocalMapper {
+ public:
+  LocalMapper(const SlamSettings& settings, Map& map);
+  ~LocalMapper();  ///< stops the thread if running
+  LocalMapper(const LocalMapper&) = delete;
+  LocalMapper& operator=(const LocalMapper&) = delete;
+
+  /// Queues a keyframe made by tracking (thread-safe; does not take Map::mutex). Interrupts a
+  /// running bundle adjustment so that the new keyframe is processed soon (realtime mode).
+  void insert_keyframe(KeyFrame* keyframe);
+  /// True when the mapper is idle and accepts keyframes (ORB-SLAM2's AcceptKeyFrames).
+  bool accepts_keyframes() const;
+  std::size_t queued_keyframes() const;
+  /// Asks a running bundle adjustment to stop at its next iteration.
+  void interrupt_bundle_adjustment();
+
+  /// Deterministic mode: processes every queued keyframe in the calling thread, then returns.
+  void process_all();
+  /// Realtime mode: a thread that processes keyframes as they arrive.
+  void start();
+  /// Processes what is queued, then joins the thread.
+  void stop();
+
+  /// One entry per processed keyframe (read after stop() or from the deterministic pipeline).
+  const std::vector<MappingTimes>& times() const { return times_; }
+  /// Points created by triangulation / by fusion merged, over the run.
+  std::uint64_t points_triangulated() const { return points_triangulated_; }
+  std::uint64_t keyframes_culled() const { return keyframes_culled_; }
+
+ private:
+  void process(KeyFrame* keyframe);
+  void thread_main();
+
+  const SlamSettings settings_;
+  const ScalePyramid pyramid_;
+  Map& map_;
+  mutable std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<KeyFrame*> queue_;
+  std::atomic<bool> idle_{true};
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<bool> abort_ba_{false};
+  std::thread thread_;
+  std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
+  std::vector<MappingTimes> times_;
+  std::uint64_t points_triangulated_ = 0;
+  std::uint64_t keyframes_culled_ = 0;
+};
+
+}  // namespace porta::slam

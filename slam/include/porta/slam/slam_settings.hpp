@@ -1,0 +1,39 @@
+// Settings of the SLAM back end (tracking, local mapping) and the pipeline around it. Defaults
+// follow ORB-SLAM2's stereo configuration; every field can come from an ORB-SLAM2 YAML file
+// (settings_file.hpp) or the command line.
+#pragma once
+
+#include "porta/settings.hpp"
+#include "porta/slam/stereo_camera.hpp"
+
+namespace porta::slam {
+
+enum class RunMode {
+  realtime,       ///< tracking and local mapping in separate threads; mapping may lag behind
+  deterministic,  ///< local mapping runs to completion after each keyframe: same input, same bytes
+};
+
+struct SlamSettings {
+  StereoCamera camera;
+  FrontendSettings frontend;  ///< levels, scale factor, FAST threshold, cells, stereo search range
+
+  /// Stereo points closer than th_depth * baseline are "close" (reliable depth), as ORB-SLAM2's ThDepth.
+  double th_depth = 35.0;
+  /// Stereo initialisation needs at least this many stereo points (ORB-SLAM2: 500).
+  int min_init_stereo_points = 500;
+  /// Matches below this disparity give no depth (too far).
+  double min_disparity_px = 0.5;
+  /// Local map tracking uses the compute backend's projection-match kernel (DESIGN.md §3.10);
+  /// false runs the same search on the host (for comparison).
+  bool projection_on_backend = true;
+  /// Tracking is lost when fewer inliers than this remain after local-map tracking (ORB-SLAM2: 30).
+  int min_tracked_inliers = 30;
+  /// Most keyframes between forced keyframes (ORB-SLAM2: the frame rate).
+  int max_frames_between_keyframes = 10;
+
+  double close_depth_m() const { return th_depth * camera.baseline_m; }
+  /// Throws std::invalid_argument / SettingsError naming the bad field.
+  void validate() const;
+};
+
+}  // namespace porta::slam

@@ -1,0 +1,73 @@
+// The whole stereo SLAM pipeline for one sequence: frontend on a compute backend, tracking, local
+// mapping (in a thread or deterministic), and the trajectory of every frame (DESIGN.md §6).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "porta/backend.hpp"
+#include "porta/frontend.hpp"
+#include "porta/slam/dataset.hpp"
+#include "porta/slam/local_mapper.hpp"
+#include "porta/slam/map.hpp"
+#include "porta/slam/slam_settings.hpp"
+#include "porta/slam/tracker.hpp"
+
+namespace porta::slam {
+
+/// Per-frame stage times (nanoseconds).
+struct FrameTimes {
+  std::int64_t frontend_ns = 0;  ///< both images: detection + description (incl. upload/download)
+  std::int64_t stereo_ns = 0;    ///< stereo matching (inside the frontend call; separated when profiled)
+  std::int64_t tracking_ns = 0;
+  std::int64_t total_ns = 0;     ///< whole process() call
+};
+
+class System {
+ public:
+  /// Validates the settings (std::invalid_argument / SettingsError naming the field). `backend`
+  /// must outlive the System.
+  System(const SlamSettings& settings, Backend& backend, RunMode mode);
+  ~System();  ///< stops the mapping thread
+  System(const System&) = delete;
+  System& operator=(const System&) = delete;
+
+  /// Runs one rectified stereo pair through the pipeline.
+  TrackingResult process(const StereoPair& pair);
+  /// Realtime mode: lets local mapping finish its queue and stops its thread. Called by the
+  /// destructor; call it before reading the final trajectory.
+  void finish();
+
+  /// T_world_cam of every processed frame that was tracked, recomputed from its reference
+  /// keyframe's current pose (so it reflects bundle adjustment), in frame order.
+  Trajectory trajectory() const;
+  /// Keyframe poses (T_world_cam).
+  Trajectory keyframe_trajectory() const;
+
+  const std::vector<FrameTimes>& frame_times() const { return frame_times_; }
+  const std::vector<TrackingResult>& results() const { return results_; }
+  const LocalMapper& mapper() const { return *mapper_; }
+  const Map& map() const { return map_; }
+
+ private:
+  struct FrameRecord {
+    double time_s = 0.0;
+    bool tracked = false;
+    KeyFrame* reference = nullptr;
+    SE3 T_c_ref = SE3::Identity();  ///< camera pose relative to its reference keyframe
+  };
+  SlamSettings settings_;
+  RunMode mode_;
+  Backend& backend_;
+  std::unique_ptr<Frontend> frontend_;
+  Map map_;
+  std::unique_ptr<LocalMapper> mapper_;
+  std::unique_ptr<Tracker> tracker_;
+  std::vector<FrameRecord> records_;
+  std::vector<FrameTimes> frame_times_;
+  std::vector<TrackingResult> results_;
+  bool finished_ = false;
+};
+
+}  // namespace porta::slam

@@ -1,0 +1,72 @@
+// Tracking (DESIGN.md §6, after ORB-SLAM2's Tracking, stereo): estimates the pose of every frame
+// against the map and decides when to make keyframes.
+//
+//  1. Initialisation: the first frame with at least settings.min_init_stereo_points stereo points
+//     becomes keyframe 0 at the origin, with a map point per stereo point.
+//  2. Motion model: the last frame's points projected with a constant-velocity prediction, matched
+//     in a window (ORB-SLAM2's rotation-consistency histogram and ratio checks), pose-only
+//     optimisation (optim/pose_optimization.hpp). Fallback: the reference keyframe's points projected
+//     with the last pose and a wider window.
+//  3. Local map: the keyframes covisible with the frame's points and their neighbours; their points
+//     projected into the frame and matched on the compute backend (Backend::projection_match), ratio
+//     check, then pose-only optimisation again.
+//  4. Keyframe decision (ORB-SLAM2's NeedNewKeyFrame incl. close/far stereo points); a new keyframe
+//     gets map points for its close stereo points and is handed to local mapping.
+// Tracking loss (too few inliers) is reported in the result and never silently continued: the next
+// frames report `lost` until the pipeline re-initialises (relocalisation is a later issue).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "porta/backend.hpp"
+#include "porta/slam/frame.hpp"
+#include "porta/slam/local_mapper.hpp"
+#include "porta/slam/map.hpp"
+#include "porta/slam/slam_settings.hpp"
+
+namespace porta::slam {
+
+enum class TrackingState { not_initialized, ok, lost };
+const char* to_string(TrackingState state);
+
+struct TrackingResult {
+  TrackingState state = TrackingState::not_initialized;
+  SE3 T_cw = SE3::Identity();        ///< valid when state == ok
+  KeyFrame* reference_keyframe = nullptr;
+  bool keyframe_inserted = false;
+  bool used_motion_model = false;    ///< false: reference-keyframe fallback (or initialisation)
+  int matches_motion = 0;            ///< inliers after the first pose optimisation
+  int matches_local_map = 0;         ///< inliers after local-map tracking
+  std::string lost_reason;           ///< why tracking was lost, for the user
+  std::int64_t track_motion_ns = 0;  ///< steps 1-2
+  std::int64_t track_local_map_ns = 0;
+  std::int64_t keyframe_ns = 0;
+};
+
+class Tracker {
+ public:
+  /// `backend` runs the projection-match kernel; `tables` are the frontend's (level scales).
+  Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Backend& backend,
+          const FrontendTables& tables);
+  ~Tracker();
+  Tracker(const Tracker&) = delete;
+  Tracker& operator=(const Tracker&) = delete;
+
+  /// Tracks one frame (its features already converted, FrameFeatures::from_frontend). Takes
+  /// Map::mutex itself.
+  TrackingResult track(std::uint64_t frame_id, double time_s, std::shared_ptr<const FrameFeatures> features);
+
+  TrackingState state() const { return state_; }
+  const Frame& last_frame() const { return last_frame_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  TrackingState state_ = TrackingState::not_initialized;
+  Frame last_frame_;
+};
+
+}  // namespace porta::slam

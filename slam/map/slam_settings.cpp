@@ -1,0 +1,25 @@
+#include "porta/slam/slam_settings.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace porta::slam {
+
+void SlamSettings::validate() const {
+  camera.validate();
+  frontend.validate();
+  auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument("SLAM settings: " + what);
+  };
+  require(std::isfinite(th_depth) && th_depth > 0.0, "th_depth (ThDepth) must be > 0, got " + std::to_string(th_depth));
+  require(min_init_stereo_points >= 10 && min_init_stereo_points <= 100000,
+          "min_init_stereo_points must be in [10, 100000], got " + std::to_string(min_init_stereo_points));
+  require(std::isfinite(min_disparity_px) && min_disparity_px > 0.0,
+          "min_disparity_px must be > 0, got " + std::to_string(min_disparity_px));
+  require(min_tracked_inliers >= 3, "min_tracked_inliers must be >= 3, got " + std::to_string(min_tracked_inliers));
+  require(max_frames_between_keyframes >= 1,
+          "max_frames_between_keyframes must be >= 1, got " + std::to_string(max_frames_between_keyframes));
+}
+
+}  // namespace porta::slam
