@@ -177,4 +177,57 @@ void write_png_rgb(const std::string& path, int width, int height, const std::ui
   }
 }
 
+namespace {
+
+// The libpng writer of one file (see Reader: the function that setjmps holds no object with a destructor).
+struct Writer {
+  std::FILE* file = nullptr;
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  char message[256] = "";
+
+  ~Writer() {
+    if (png) png_destroy_write_struct(&png, info ? &info : nullptr);
+    if (file) std::fclose(file);
+  }
+};
+
+void on_write_error(png_structp png, png_const_charp message) {
+  auto* writer = static_cast<Writer*>(png_get_error_ptr(png));
+  std::snprintf(writer->message, sizeof writer->message, "%s", message);
+  png_longjmp(png, 1);
+}
+
+bool write_gray_rows(Writer& w, int width, int height, const std::uint8_t* gray, std::size_t stride_bytes, int level) {
+  if (setjmp(png_jmpbuf(w.png))) return false;
+  png_init_io(w.png, w.file);
+  png_set_compression_level(w.png, level);
+  png_set_filter(w.png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
+  png_set_IHDR(w.png, w.info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, PNG_COLOR_TYPE_GRAY,
+               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
+  png_write_info(w.png, w.info);
+  for (int y = 0; y < height; ++y)
+    png_write_row(w.png, const_cast<png_bytep>(gray + static_cast<std::size_t>(y) * stride_bytes));
+  png_write_end(w.png, nullptr);
+  return true;
+}
+
+}  // namespace
+
+void write_png_gray(const std::string& path, int width, int height, const std::uint8_t* gray, std::size_t stride_bytes,
+                    int compression_level) {
+  if (width < 1 || height < 1 || compression_level < 0 || compression_level > 9)
+    throw PngError(PngError::Kind::unwritable, "bad image size or compression level");
+  Writer w;
+  w.file = std::fopen(path.c_str(), "wb");
+  if (!w.file) throw PngError(PngError::Kind::unwritable, std::strerror(errno));
+  w.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &w, on_write_error, on_warning);
+  if (w.png) w.info = png_create_info_struct(w.png);
+  if (!w.png || !w.info) throw PngError(PngError::Kind::unwritable, "libpng could not allocate a writer");
+  if (!write_gray_rows(w, width, height, gray, stride_bytes, compression_level))
+    throw PngError(PngError::Kind::unwritable, std::string("libpng: ") + (w.message[0] ? w.message : "write failed"));
+  if (std::fflush(w.file) != 0 || std::ferror(w.file))
+    throw PngError(PngError::Kind::unwritable, std::strerror(errno));
+}
+
 }  // namespace porta::io

@@ -56,4 +56,11 @@ GrayPng read_png_gray(const std::string& path, int max_side);
 void write_png_rgb(const std::string& path, int width, int height, const std::uint8_t* rgb,
                    std::size_t stride_bytes);
 
+/// Writes 8-bit gray pixels (`width` x `height`, rows `stride_bytes` apart) as a PNG file with fixed
+/// settings (zlib level `compression_level` in [0, 9], one fixed row filter, no time stamp), so that
+/// the same pixels always give the same bytes with a given libpng and zlib. Level 1 with the "sub"
+/// filter is fast and still compresses textured images well. Throws PngError (Kind::unwritable).
+void write_png_gray(const std::string& path, int width, int height, const std::uint8_t* gray,
+                    std::size_t stride_bytes, int compression_level = 1);
+
 }  // namespace porta::io

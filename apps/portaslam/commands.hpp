@@ -17,6 +17,12 @@ std::string render_usage();
 int eval_command(const std::vector<std::string>& args);
 std::string eval_usage();
 
+/// `portaslam run`: stereo SLAM over a dataset (slam/); `portaslam demo`: render, then run.
+int run_command(const std::vector<std::string>& args);
+std::string run_usage();
+int demo_command(const std::vector<std::string>& args);
+std::string demo_usage();
+
 /// Usage text of `portaslam features` (also shown by `portaslam features --help`).
 std::string features_usage();
 

@@ -30,6 +30,12 @@ const char* const kUsage =
   "  eval       evaluate an estimated trajectory against ground truth: ATE, RPE, KITTI\n"
   "             relative errors; JSON report and PNG plots\n"
 #endif
+#if PORTA_APPS_HAVE_RUN
+  "  run        stereo SLAM over a KITTI, EuRoC or folder dataset: trajectory, per-stage timing, ATE\n"
+#endif
+#if PORTA_APPS_HAVE_DEMO
+  "  demo       render a short stereo sequence along a built-in street loop and run SLAM on it\n"
+#endif
   "  help       show this text (also: portaslam --help); `portaslam help COMMAND` for details\n"
     "\n"
     "Examples:\n"
@@ -58,6 +64,18 @@ int help(const std::vector<std::string>& args) {
 #if PORTA_APPS_HAVE_RENDER
   if (!args.empty() && args[0] == "render") {
     std::cout << porta::app::render_usage();
+    return 0;
+  }
+#endif
+#if PORTA_APPS_HAVE_RUN
+  if (!args.empty() && args[0] == "run") {
+    std::cout << porta::app::run_usage();
+    return 0;
+  }
+#endif
+#if PORTA_APPS_HAVE_DEMO
+  if (!args.empty() && args[0] == "demo") {
+    std::cout << porta::app::demo_usage();
     return 0;
   }
 #endif
@@ -90,6 +108,12 @@ int main(int argc, char** argv) {
 #endif
 #if PORTA_APPS_HAVE_EVAL
   if (command == "eval") return porta::app::eval_command(rest);
+#endif
+#if PORTA_APPS_HAVE_RUN
+  if (command == "run") return porta::app::run_command(rest);
+#endif
+#if PORTA_APPS_HAVE_DEMO
+  if (command == "demo") return porta::app::demo_command(rest);
 #endif
   std::cerr << "portaslam: unknown command '" << command << "'\n\n" << kUsage;
   return 2;

@@ -29,6 +29,7 @@ FrameFeatures FrameFeatures::from_frontend(const StereoFeatures& stereo, const F
   out.u_right.assign(n, -1.0f);
   out.depth_m.assign(n, -1.0f);
   out.descriptors = left.descriptors;
+  out.keypoints = left.keypoints;
   out.descriptors.resize(n);
   const int bins = tables.settings.orientation_bins;
   for (std::size_t i = 0; i < n; ++i) {

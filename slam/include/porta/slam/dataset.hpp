@@ -49,6 +49,9 @@ class StereoDataset {
   /// poses.txt, EuRoC's ground-truth CSV (body poses moved to the camera with T_BS and the
   /// rectification rotation). Times are in the same base as time_s().
   virtual const std::optional<Trajectory>& ground_truth() const = 0;
+  /// False when the dataset was opened left-only (DatasetOptions::left_only): StereoPair::right is
+  /// then empty. camera() still carries the baseline from the calibration.
+  virtual bool has_right() const { return true; }
 };
 
 /// Options that override what the dataset's own files say.
@@ -57,7 +60,13 @@ struct DatasetOptions {
   /// LEFT/RIGHT.K,D,R,P rectification). Required for `folder` datasets without a calib file.
   std::string settings_path;
   /// Ground-truth file to use instead of the one found in the dataset (any trajectory format).
+  /// KITTI: poses of the left camera (a KITTI file without times takes times.txt's times, pose i
+  /// being frame i). EuRoC: body poses, moved to the rectified left camera like the dataset's own.
+  /// Folder: poses of the (rectified) left camera.
   std::string ground_truth_path;
+  /// Read the left images only (KITTI and folder datasets may then lack the right image folder;
+  /// EuRoC still needs cam1's calibration to rectify). StereoPair::right stays empty.
+  bool left_only = false;
 };
 
 /// Opens a dataset, reading its index files and calibration (not the images). Throws DatasetError.

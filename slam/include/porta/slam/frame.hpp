@@ -36,6 +36,10 @@ struct FrameFeatures {
   std::vector<Descriptor> descriptors;
   std::vector<float> u_right;               ///< right-image column of the stereo match, < 0: none
   std::vector<float> depth_m;               ///< bf / disparity, < 0: no stereo match
+  /// The frontend's keypoints (level-n integer position, level, angle bin), one per feature, as the
+  /// projection-match kernel reads them (DESIGN.md §3.10). Empty when the features were not made by
+  /// from_frontend (tests, loaded maps): tracking then derives them from `uv` and `level`.
+  std::vector<Keypoint> keypoints;
 
   std::size_t size() const { return uv.size(); }
   bool has_depth(std::size_t i) const { return depth_m[i] > 0.0f; }

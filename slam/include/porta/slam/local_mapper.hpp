@@ -58,13 +58,18 @@ class LocalMapper {
 
   /// One entry per processed keyframe (read after stop() or from the deterministic pipeline).
   const std::vector<MappingTimes>& times() const { return times_; }
-  /// Points created by triangulation / by fusion merged, over the run.
+  /// Points created by triangulation / merged by fusion / culled as recent points, and keyframes
+  /// culled, over the run (read like times()).
   std::uint64_t points_triangulated() const { return points_triangulated_; }
+  std::uint64_t points_fused() const { return points_fused_; }
+  std::uint64_t points_culled() const { return points_culled_; }
   std::uint64_t keyframes_culled() const { return keyframes_culled_; }
 
  private:
   void process(KeyFrame* keyframe);
   void thread_main();
+  /// Takes the oldest queued keyframe (nullptr: none) and clears the bundle-adjustment abort flag.
+  KeyFrame* pop_keyframe();
 
   const SlamSettings settings_;
   const ScalePyramid pyramid_;
@@ -79,6 +84,8 @@ class LocalMapper {
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
   std::vector<MappingTimes> times_;
   std::uint64_t points_triangulated_ = 0;
+  std::uint64_t points_fused_ = 0;
+  std::uint64_t points_culled_ = 0;
   std::uint64_t keyframes_culled_ = 0;
 };
 

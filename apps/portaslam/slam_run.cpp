@@ -1,0 +1,289 @@
+#include "slam_run.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "cli_args.hpp"
+#include "porta/registry.hpp"
+#include "porta/slam/evaluation.hpp"
+#include "porta/slam/settings_file.hpp"
+#include "porta/slam/system.hpp"
+#include "porta/slam/trajectory_io.hpp"
+
+namespace porta::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Quantiles {
+  double median_ms = 0.0, p95_ms = 0.0, mean_ms = 0.0;
+  std::size_t count = 0;
+};
+
+Quantiles quantiles(std::vector<std::int64_t> ns) {
+  Quantiles q;
+  q.count = ns.size();
+  if (ns.empty()) return q;
+  std::sort(ns.begin(), ns.end());
+  auto at = [&](double f) {
+    const std::size_t i = std::min(ns.size() - 1, static_cast<std::size_t>(std::floor(f * (ns.size() - 1) + 0.5)));
+    return ns[i] / 1e6;
+  };
+  q.median_ms = at(0.5);
+  q.p95_ms = at(0.95);
+  double sum = 0.0;
+  for (std::int64_t v : ns) sum += v / 1e6;
+  q.mean_ms = sum / ns.size();
+  return q;
+}
+
+slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::StereoDataset& dataset) {
+  slam::SlamSettings settings;
+  settings.camera = dataset.camera();
+  if (!options.dataset.settings_path.empty()) {
+    const slam::SettingsFile file = slam::read_settings_file(options.dataset.settings_path);
+    file.apply_to(settings.frontend);
+    if (file.th_depth) settings.th_depth = *file.th_depth;
+  }
+  if (options.levels > 0) settings.frontend.levels = options.levels;
+  // Search the whole disparity range the scene can produce: from 0.5 m (or the image width).
+  const int max_disparity = static_cast<int>(std::ceil(settings.camera.bf() / 0.5));
+  settings.frontend.stereo_max_disparity =
+      std::clamp(max_disparity, settings.frontend.stereo_min_disparity + 1, std::min(settings.camera.width, 4096));
+  settings.validate();
+  return settings;
+}
+
+std::string format_ms(const Quantiles& q) {
+  char text[96];
+  std::snprintf(text, sizeof text, "%9.2f %9.2f %9.2f %8zu", q.median_ms, q.p95_ms, q.mean_ms, q.count);
+  return text;
+}
+
+void ensure_folder(const std::string& folder) {
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error || !fs::is_directory(folder)) {
+    throw CliError("cannot create the output folder '" + folder + "': " +
+                   (error ? error.message() : std::string("not a folder")));
+  }
+}
+
+}  // namespace
+
+SlamRunSummary run_slam(const SlamRunOptions& options) {
+  const auto dataset = slam::open_dataset(options.kind, options.path, options.dataset);
+  if (dataset->size() == 0) throw CliError("the dataset " + options.path + " has no stereo frames");
+  if (options.first >= dataset->size()) {
+    throw CliError("--first " + std::to_string(options.first) + " is past the last frame (the dataset has " +
+                   std::to_string(dataset->size()) + " frames)");
+  }
+  const std::size_t end =
+      options.count == 0 ? dataset->size() : std::min(dataset->size(), options.first + options.count);
+  const slam::SlamSettings settings = make_settings(options, *dataset);
+  ensure_folder(options.out);
+
+  BackendOptions backend_options;
+  backend_options.device = options.device;
+  backend_options.threads = options.threads;
+  std::unique_ptr<Backend> backend = BackendRegistry::instance().create(options.backend, backend_options);
+
+  std::printf("dataset   %s\n", dataset->describe().c_str());
+  std::printf("camera    %s\n", settings.camera.describe().c_str());
+  std::printf("backend   %s on %s\n", backend->name().c_str(), backend->device_name().c_str());
+  std::printf("mode      %s, frames %zu..%zu, %d pyramid levels, scale %.2f, FAST threshold %d\n",
+              options.mode == slam::RunMode::realtime ? "realtime" : "deterministic", options.first, end - 1,
+              settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold);
+  std::fflush(stdout);
+
+  slam::System system(settings, *backend, options.mode);
+  const std::size_t total = end - options.first;
+  const std::size_t progress_every = std::max<std::size_t>(1, total / 20);
+  SlamRunSummary summary;
+  slam::TrackingState previous = slam::TrackingState::not_initialized;
+  const auto run_start = std::chrono::steady_clock::now();
+  // The next pair is read (and for EuRoC rectified) while the current one is processed.
+  auto load = [&](std::size_t i) { return dataset->load(i); };
+  std::future<slam::StereoPair> next = std::async(std::launch::async, load, options.first);
+  for (std::size_t i = options.first; i < end; ++i) {
+    slam::StereoPair pair = next.get();
+    if (i + 1 < end) next = std::async(std::launch::async, load, i + 1);
+    const slam::TrackingResult result = system.process(pair);
+    ++summary.frames;
+    if (result.state == slam::TrackingState::ok) ++summary.tracked;
+    if (result.state == slam::TrackingState::lost) {
+      ++summary.lost;
+      if (previous != slam::TrackingState::lost) {
+        std::fprintf(stderr, "frame %zu: tracking LOST: %s\n", i, result.lost_reason.c_str());
+      }
+    }
+    previous = result.state;
+    if (!options.quiet && (summary.frames % progress_every == 0 || i + 1 == end)) {
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
+      std::size_t keyframes = 0, points = 0;
+      {
+        std::lock_guard<std::mutex> lock(system.map().mutex);
+        keyframes = system.map().num_keyframes();
+        points = system.map().num_points();
+      }
+      std::fprintf(stderr, "frame %zu/%zu  %.1f frames/s  %s  inliers %d  keyframes %zu  map points %zu\n",
+                   summary.frames, total, summary.frames / std::max(seconds, 1e-9), slam::to_string(result.state),
+                   result.matches_local_map, keyframes, points);
+    }
+  }
+  system.finish();
+
+  const slam::Trajectory trajectory = system.trajectory();
+  const std::string tum_path = (fs::path(options.out) / "trajectory_tum.txt").string();
+  const std::string kitti_path = (fs::path(options.out) / "trajectory_kitti.txt").string();
+  const std::string keyframes_path = (fs::path(options.out) / "keyframes_tum.txt").string();
+  slam::write_trajectory(tum_path, trajectory, slam::TrajectoryFormat::tum);
+  slam::write_trajectory(kitti_path, trajectory, slam::TrajectoryFormat::kitti);
+  slam::write_kitti_times((fs::path(options.out) / "trajectory_times.txt").string(), trajectory);
+  slam::write_trajectory(keyframes_path, system.keyframe_trajectory(), slam::TrajectoryFormat::tum);
+  {
+    std::lock_guard<std::mutex> lock(system.map().mutex);
+    summary.keyframes = system.map().num_keyframes();
+    summary.map_points = system.map().num_points();
+  }
+
+  // Per-stage timing.
+  std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, ba_ns;
+  for (const slam::FrameTimes& t : system.frame_times()) {
+    frontend_ns.push_back(t.frontend_ns);
+    stereo_ns.push_back(t.stereo_ns);
+    tracking_ns.push_back(t.tracking_ns);
+    frame_ns.push_back(t.total_ns);
+  }
+  for (const slam::MappingTimes& t : system.mapper().times()) {
+    local_map_ns.push_back(t.total_ns - t.bundle_adjustment_ns);
+    ba_ns.push_back(t.bundle_adjustment_ns);
+  }
+  const std::map<std::string, Quantiles> stages = {
+      {"1 frontend", quantiles(frontend_ns)}, {"2 stereo", quantiles(stereo_ns)},
+      {"3 tracking", quantiles(tracking_ns)}, {"4 local map", quantiles(local_map_ns)},
+      {"5 BA", quantiles(ba_ns)},             {"6 frame", quantiles(frame_ns)}};
+  summary.median_frame_ms = stages.at("6 frame").median_ms;
+
+  std::printf("\nframes %zu, tracked %zu, lost %zu; keyframes %zu, map points %zu\n", summary.frames,
+              summary.tracked, summary.lost, summary.keyframes, summary.map_points);
+  std::printf("\nstage (ms)       median       p95      mean    count\n");
+  for (const auto& [name, q] : stages) std::printf("%-12s %s\n", name.substr(2).c_str(), format_ms(q).c_str());
+  std::printf("(frontend includes stereo matching; frame = frontend + tracking%s; local map and BA are per keyframe)\n",
+              options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes" : "");
+
+  std::string ate_json = "null";
+  if (dataset->ground_truth() && trajectory.size() >= slam::kMinimumPairs) {
+    try {
+      const slam::EvaluationResult eval = slam::evaluate(*dataset->ground_truth(), trajectory);
+      summary.has_ate = true;
+      summary.ate_rmse_m = eval.ate.translation_m.rmse;
+      summary.path_length_m = eval.matched_path_length_m;
+      const double percent = summary.path_length_m > 0.0 ? 100.0 * summary.ate_rmse_m / summary.path_length_m : 0.0;
+      std::printf("\nATE (SE(3)-aligned, %zu poses): RMSE %.4f m (%.3f %% of the %.1f m path), median %.4f m, max %.4f m\n",
+                  eval.association.matched(), summary.ate_rmse_m, percent, summary.path_length_m,
+                  eval.ate.translation_m.median, eval.ate.translation_m.max);
+      char text[256];
+      std::snprintf(text, sizeof text,
+                    "{\"poses\": %zu, \"rmse_m\": %.6f, \"median_m\": %.6f, \"max_m\": %.6f, \"path_length_m\": %.3f}",
+                    eval.association.matched(), summary.ate_rmse_m, eval.ate.translation_m.median,
+                    eval.ate.translation_m.max, summary.path_length_m);
+      ate_json = text;
+    } catch (const slam::EvaluationError& e) {
+      std::printf("\nATE not computed: %s\n", e.what());
+    }
+  }
+  std::printf("\nwrote %s, %s (+ trajectory_times.txt), %s\n", tum_path.c_str(), kitti_path.c_str(),
+              keyframes_path.c_str());
+
+  const std::string json_path = options.json.empty() ? (fs::path(options.out) / "summary.json").string() : options.json;
+  std::ofstream json(json_path);
+  if (!json) throw CliError("cannot write '" + json_path + "'");
+  json << "{\n  \"dataset\": \"" << options.path << "\",\n  \"backend\": \"" << options.backend
+       << "\",\n  \"mode\": \"" << (options.mode == slam::RunMode::realtime ? "realtime" : "deterministic")
+       << "\",\n  \"frames\": " << summary.frames << ",\n  \"tracked\": " << summary.tracked
+       << ",\n  \"lost\": " << summary.lost << ",\n  \"keyframes\": " << summary.keyframes
+       << ",\n  \"map_points\": " << summary.map_points << ",\n  \"stages_ms\": {";
+  bool first = true;
+  for (const auto& [name, q] : stages) {
+    json << (first ? "\n" : ",\n") << "    \"" << name.substr(2) << "\": {\"median\": " << q.median_ms
+         << ", \"p95\": " << q.p95_ms << ", \"mean\": " << q.mean_ms << ", \"count\": " << q.count << "}";
+    first = false;
+  }
+  json << "\n  },\n  \"ate\": " << ate_json << "\n}\n";
+  return summary;
+}
+
+std::string slam_run_options_usage() {
+  return "  --settings FILE     ORB-SLAM2-style YAML settings (camera for folder datasets; ORBextractor\n"
+         "                      levels/scale/threshold; ThDepth; LEFT/RIGHT rectification for EuRoC)\n"
+         "  --ground-truth FILE ground truth to evaluate against (any trajectory format)\n"
+         "  --backend NAME      cpu (default), cuda, vulkan or opencl\n"
+         "  --device D          device index or name substring for a GPU backend\n"
+         "  --threads N         cpu backend worker threads (default: all)\n"
+         "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
+         "                      (mapping completes after each keyframe; same input, same bytes)\n"
+         "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
+         "                      trajectory_kitti.txt + trajectory_times.txt, keyframes_tum.txt, summary.json\n"
+         "  --first N           first frame (default 0)\n"
+         "  --frames N          number of frames (default: all)\n"
+         "  --levels N          pyramid levels (default 8)\n"
+         "  --json FILE         summary JSON (default <out>/summary.json)\n"
+         "  --quiet             no progress lines\n";
+}
+
+bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, SlamRunOptions& options) {
+  if (option == "--settings") {
+    options.dataset.settings_path = cursor.value(option);
+  } else if (option == "--ground-truth") {
+    options.dataset.ground_truth_path = cursor.value(option);
+  } else if (option == "--backend") {
+    options.backend = cursor.value(option);
+  } else if (option == "--device") {
+    options.device = cursor.value(option);
+  } else if (option == "--threads") {
+    options.threads = parse_int(option, cursor.value(option));
+    if (options.threads < 0) throw CliError("--threads must be >= 0 (0 = all hardware threads)");
+  } else if (option == "--mode") {
+    const std::string mode = cursor.value(option);
+    if (mode == "realtime") {
+      options.mode = slam::RunMode::realtime;
+    } else if (mode == "deterministic") {
+      options.mode = slam::RunMode::deterministic;
+    } else {
+      throw CliError("--mode must be realtime or deterministic, got '" + mode + "'");
+    }
+  } else if (option == "--out") {
+    options.out = cursor.value(option);
+  } else if (option == "--first") {
+    const int first = parse_int(option, cursor.value(option));
+    if (first < 0) throw CliError("--first must be >= 0");
+    options.first = static_cast<std::size_t>(first);
+  } else if (option == "--frames") {
+    const int count = parse_int(option, cursor.value(option));
+    if (count < 1) throw CliError("--frames must be >= 1");
+    options.count = static_cast<std::size_t>(count);
+  } else if (option == "--levels") {
+    options.levels = parse_int(option, cursor.value(option));
+    if (options.levels < 1 || options.levels > 12) throw CliError("--levels must be in [1, 12]");
+  } else if (option == "--json") {
+    options.json = cursor.value(option);
+  } else if (option == "--quiet") {
+    options.quiet = true;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace porta::app

@@ -1,0 +1,47 @@
+// Running the SLAM pipeline over a dataset, shared by `portaslam run` and `portaslam demo`:
+// progress on stderr, the trajectory files, per-stage statistics and, with ground truth, the ATE.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "porta/slam/dataset.hpp"
+#include "porta/slam/slam_settings.hpp"
+
+namespace porta::app {
+
+struct SlamRunOptions {
+  slam::DatasetKind kind = slam::DatasetKind::kitti;
+  std::string path;
+  slam::DatasetOptions dataset;   ///< settings file and ground-truth override
+  std::string backend = "cpu";
+  std::string device;
+  int threads = 0;                ///< cpu backend worker threads, 0 = all
+  slam::RunMode mode = slam::RunMode::realtime;
+  std::string out = "portaslam-run";
+  std::size_t first = 0;
+  std::size_t count = 0;          ///< 0 = to the end
+  int levels = 0;                 ///< 0 = the settings file's or the default (8)
+  std::string json;               ///< summary JSON path; empty = <out>/summary.json
+  bool quiet = false;             ///< no progress lines
+};
+
+/// What a run measured, for callers that check it (demo, tests).
+struct SlamRunSummary {
+  std::size_t frames = 0, tracked = 0, lost = 0, keyframes = 0, map_points = 0;
+  bool has_ate = false;
+  double ate_rmse_m = 0.0, path_length_m = 0.0;
+  double median_frame_ms = 0.0;
+};
+
+/// Runs and reports. Throws CliError / DatasetError / SettingsFileError / BackendError with a
+/// message for the user.
+SlamRunSummary run_slam(const SlamRunOptions& options);
+
+/// Usage of the options run_slam understands (shared by run and demo).
+std::string slam_run_options_usage();
+/// Parses one option of SlamRunOptions; false when `option` is not one of them.
+class ArgumentCursor;
+bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, SlamRunOptions& options);
+
+}  // namespace porta::app

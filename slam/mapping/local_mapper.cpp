@@ -1,0 +1,162 @@
+// LocalMapper: the keyframe queue, the realtime thread and the order of the steps
+// (mapping_steps.hpp); see local_mapper.hpp.
+//
+// Threads: the queue has its own mutex (never held while taking Map::mutex, so tracking may insert
+// a keyframe while it holds the map). The steps take Map::mutex themselves; bundle adjustment
+// computes without it. Fusion, bundle adjustment and keyframe culling are skipped while more
+// keyframes wait, as ORB-SLAM2 does, so a mapper that falls behind catches up; in the
+// deterministic mode the queue holds what the caller inserted, so that choice is reproducible too.
+#include "porta/slam/local_mapper.hpp"
+
+#include <chrono>
+#include <stdexcept>
+
+#include "mapping_steps.hpp"
+
+namespace porta::slam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::int64_t elapsed_ns(Clock::time_point since) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - since).count();
+}
+
+}  // namespace
+
+LocalMapper::LocalMapper(const SlamSettings& settings, Map& map)
+    : settings_(settings), pyramid_(settings.frontend.levels, settings.frontend.scale_factor), map_(map) {}
+
+LocalMapper::~LocalMapper() { stop(); }
+
+void LocalMapper::insert_keyframe(KeyFrame* keyframe) {
+  if (keyframe == nullptr) throw std::invalid_argument("LocalMapper::insert_keyframe: keyframe is null");
+  {
+    std::lock_guard lock(queue_mutex_);
+    queue_.push_back(keyframe);
+    abort_ba_ = true;  // a running bundle adjustment yields to the new keyframe
+  }
+  queue_cv_.notify_one();
+}
+
+bool LocalMapper::accepts_keyframes() const { return idle_; }
+
+std::size_t LocalMapper::queued_keyframes() const {
+  std::lock_guard lock(queue_mutex_);
+  return queue_.size();
+}
+
+void LocalMapper::interrupt_bundle_adjustment() { abort_ba_ = true; }
+
+KeyFrame* LocalMapper::pop_keyframe() {
+  std::lock_guard lock(queue_mutex_);
+  if (queue_.empty()) return nullptr;
+  KeyFrame* keyframe = queue_.front();
+  queue_.pop_front();
+  abort_ba_ = false;  // only keyframes inserted from now on interrupt this one's adjustment
+  return keyframe;
+}
+
+void LocalMapper::process_all() {
+  if (thread_.joinable()) {
+    throw std::logic_error(
+        "LocalMapper::process_all: the mapping thread is running (realtime mode); "
+        "call stop() first or use insert_keyframe() alone");
+  }
+  while (KeyFrame* keyframe = pop_keyframe()) process(keyframe);
+}
+
+void LocalMapper::start() {
+  if (thread_.joinable()) return;
+  stop_requested_ = false;
+  thread_ = std::thread(&LocalMapper::thread_main, this);
+}
+
+void LocalMapper::stop() {
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard lock(queue_mutex_);
+    stop_requested_ = true;
+  }
+  queue_cv_.notify_all();
+  thread_.join();
+}
+
+void LocalMapper::thread_main() {
+  for (;;) {
+    KeyFrame* keyframe = nullptr;
+    {
+      std::unique_lock lock(queue_mutex_);
+      queue_cv_.wait(lock, [this] { return !queue_.empty() || stop_requested_; });
+      if (queue_.empty()) break;  // stop requested and the queue drained
+      keyframe = queue_.front();
+      queue_.pop_front();
+      abort_ba_ = false;
+      idle_ = false;  // under the queue lock: "nothing queued and idle" means all processed
+    }
+    process(keyframe);
+    std::lock_guard lock(queue_mutex_);
+    idle_ = true;
+  }
+}
+
+void LocalMapper::process(KeyFrame* keyframe) {
+  MappingTimes times;
+  const auto start = Clock::now();
+  auto step = Clock::now();
+  {
+    std::lock_guard lock(map_.mutex);
+    if (!keyframe->bad) {
+      const std::vector<MapPoint*> created = mapping::link_keyframe_points(keyframe, pyramid_);
+      recent_points_.insert(recent_points_.end(), created.begin(), created.end());
+    }
+  }
+  times.process_ns = elapsed_ns(step);
+
+  step = Clock::now();
+  {
+    std::lock_guard lock(map_.mutex);
+    points_culled_ += static_cast<std::uint64_t>(mapping::cull_recent_points(recent_points_, keyframe->id));
+  }
+  times.cull_points_ns = elapsed_ns(step);
+
+  step = Clock::now();
+  points_triangulated_ += static_cast<std::uint64_t>(mapping::triangulate_new_points(
+      map_, keyframe, settings_, pyramid_, recent_points_, [this] { return queued_keyframes() > 0; }));
+  times.triangulate_ns = elapsed_ns(step);
+
+  if (queued_keyframes() == 0) {
+    step = Clock::now();
+    {
+      std::lock_guard lock(map_.mutex);
+      points_fused_ +=
+          static_cast<std::uint64_t>(mapping::fuse_with_neighbours(keyframe, settings_, pyramid_));
+    }
+    times.fuse_ns = elapsed_ns(step);
+  }
+
+  if (queued_keyframes() == 0) {
+    step = Clock::now();
+    bool enough_keyframes = false;
+    {
+      std::lock_guard lock(map_.mutex);
+      enough_keyframes = map_.num_keyframes() > 2;
+    }
+    if (enough_keyframes) mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &abort_ba_);
+    times.bundle_adjustment_ns = elapsed_ns(step);
+
+    step = Clock::now();
+    {
+      std::lock_guard lock(map_.mutex);
+      if (!keyframe->bad) {
+        keyframes_culled_ += static_cast<std::uint64_t>(
+            mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
+      }
+    }
+    times.cull_keyframes_ns = elapsed_ns(step);
+  }
+  times.total_ns = elapsed_ns(start);
+  times_.push_back(times);
+}
+
+}  // namespace porta::slam

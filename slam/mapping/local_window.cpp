@@ -1,0 +1,159 @@
+// Local mapping steps 5 and 6: local bundle adjustment (after ORB-SLAM2's
+// Optimizer::LocalBundleAdjustment, on optim::local_bundle_adjustment) and keyframe culling
+// (after ORB-SLAM2's KeyFrameCulling); see mapping_steps.hpp.
+#include <map>
+#include <mutex>
+#include <set>
+
+#include "mapping_steps.hpp"
+#include "porta/slam/optim/local_bundle_adjustment.hpp"
+
+namespace porta::slam::mapping {
+namespace {
+
+/// What the optimiser works on, copied under the lock, with the map objects each entry stands for.
+struct BaProblem {
+  std::vector<KeyFrame*> keyframes;  // local (free) ones first, then fixed ones; each in id order
+  std::vector<MapPoint*> points;     // id order
+  std::vector<optim::BaKeyframe> ba_keyframes;
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<optim::BaObservation> observations;
+  std::vector<int> observation_feature;  // per observation: the keyframe's feature index
+};
+
+BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) {
+  BaProblem problem;
+  std::set<KeyFrame*, ById> local{keyframe};
+  for (const auto& [neighbour, weight] : keyframe->connections) {
+    if (!neighbour->bad) local.insert(neighbour);
+  }
+  std::set<MapPoint*, ById> points;
+  for (KeyFrame* kf : local) {
+    for (MapPoint* point : kf->points) {
+      if (point != nullptr && !point->bad) points.insert(point);
+    }
+  }
+  std::set<KeyFrame*, ById> fixed;
+  for (MapPoint* point : points) {
+    for (const auto& [observer, feature] : point->observations) {
+      if (!observer->bad && local.count(observer) == 0) fixed.insert(observer);
+    }
+  }
+
+  std::map<KeyFrame*, std::size_t, ById> index;
+  for (KeyFrame* kf : local) {
+    index[kf] = problem.keyframes.size();
+    problem.keyframes.push_back(kf);
+    problem.ba_keyframes.push_back({kf->T_cw, kf->id == 0});  // keyframe 0 anchors the map
+  }
+  for (KeyFrame* kf : fixed) {
+    index[kf] = problem.keyframes.size();
+    problem.keyframes.push_back(kf);
+    problem.ba_keyframes.push_back({kf->T_cw, true});
+  }
+  // Without any fixed keyframe the gauge would be free: hold the oldest local keyframe instead.
+  bool any_fixed = false;
+  for (const optim::BaKeyframe& kf : problem.ba_keyframes) any_fixed = any_fixed || kf.fixed;
+  if (!any_fixed && !problem.ba_keyframes.empty()) problem.ba_keyframes.front().fixed = true;
+
+  for (MapPoint* point : points) {
+    const std::size_t point_index = problem.points.size();
+    problem.points.push_back(point);
+    problem.positions.push_back(point->position);
+    for (const auto& [observer, feature] : point->observations) {
+      const auto it = index.find(observer);
+      if (observer->bad || it == index.end()) continue;
+      const FrameFeatures& f = *observer->features;
+      const auto s = static_cast<std::size_t>(feature);
+      optim::BaObservation observation;
+      observation.keyframe = it->second;
+      observation.point = point_index;
+      observation.u_left = f.uv[s].x();
+      observation.v = f.uv[s].y();
+      observation.u_right = f.has_depth(s) ? static_cast<double>(f.u_right[s]) : -1.0;
+      observation.sigma2 = pyramid.sigma2[f.level[s]];
+      problem.observations.push_back(observation);
+      problem.observation_feature.push_back(feature);
+    }
+  }
+  return problem;
+}
+
+}  // namespace
+
+int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
+                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag) {
+  BaProblem problem;
+  {
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad) return 0;
+    problem = collect_local_window(keyframe, pyramid);
+  }
+  if (problem.points.empty() || problem.observations.empty()) return 0;
+
+  optim::LocalBundleAdjustmentOptions options;
+  options.num_threads = 1;  // deterministic
+  options.stop_flag = stop_flag;
+  const optim::LocalBundleAdjustmentResult result = optim::local_bundle_adjustment(
+      settings.camera, problem.ba_keyframes, problem.positions, problem.observations, options);
+
+  std::lock_guard lock(map.mutex);
+  int erased = 0;
+  for (const std::size_t o : result.outlier_observations) {
+    MapPoint* point = problem.points[problem.observations[o].point];
+    KeyFrame* observer = problem.keyframes[problem.observations[o].keyframe];
+    if (point->bad || observer->bad) continue;
+    const auto it = point->observations.find(observer);
+    if (it == point->observations.end() || it->second != problem.observation_feature[o]) continue;
+    Map::erase_observation(point, observer);
+    ++erased;
+  }
+  for (std::size_t k = 0; k < problem.keyframes.size(); ++k) {
+    if (!problem.ba_keyframes[k].fixed && !problem.keyframes[k]->bad)
+      problem.keyframes[k]->T_cw = result.T_cw[k];
+  }
+  for (std::size_t p = 0; p < problem.points.size(); ++p) {
+    MapPoint* point = problem.points[p];
+    if (point->bad) continue;
+    point->position = result.points[p];
+    point->update_normal_and_depth(pyramid);
+  }
+  return erased;
+}
+
+int cull_redundant_keyframes(KeyFrame* keyframe, double close_depth_m) {
+  constexpr int kObserversNeeded = 3;
+  int culled = 0;
+  // By decreasing weight, as ORB-SLAM2: the copy stays valid while culling rewrites the edges.
+  for (KeyFrame* candidate : keyframe->covisibles_with_weight(0)) {
+    if (candidate->id == 0 || candidate->bad) continue;
+    const FrameFeatures& f = *candidate->features;
+    int counted = 0, redundant = 0;
+    for (std::size_t i = 0; i < candidate->points.size(); ++i) {
+      const MapPoint* point = candidate->points[i];
+      if (point == nullptr || point->bad) continue;
+      // Stereo: only close points, whose depth the keyframe measured reliably, count.
+      if (!f.has_depth(i) || f.depth_m[i] > close_depth_m) continue;
+      ++counted;
+      if (point->num_observations() <= kObserversNeeded) continue;
+      const int level = f.level[i];
+      int observers = 0;
+      for (const auto& [observer, feature] : point->observations) {
+        if (observer == candidate) continue;
+        // Seen at the same or a finer scale (one level of slack, as ORB-SLAM2).
+        if (observer->features->level[static_cast<std::size_t>(feature)] <= level + 1 &&
+            ++observers >= kObserversNeeded) {
+          break;
+        }
+      }
+      if (observers >= kObserversNeeded) ++redundant;
+    }
+    if (counted > 0 && redundant > 0.9 * counted) {
+      Map::set_bad(candidate);
+      ++culled;
+    }
+  }
+  return culled;
+}
+
+}  // namespace porta::slam::mapping

@@ -1,0 +1,72 @@
+// The steps of local mapping (local_mapper.hpp), one function each so that every step can be read,
+// timed and tested on its own. Private to slam/mapping/.
+//
+// Locking: functions taking `Map&` lock Map::mutex themselves (they hold it only for short
+// read-modify sections and do the long work on copies); the others expect the caller to hold it.
+// Determinism: every loop runs over feature indices or id-ordered containers.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "porta/slam/frame.hpp"
+#include "porta/slam/map.hpp"
+#include "porta/slam/slam_settings.hpp"
+
+namespace porta::slam::mapping {
+
+/// ORB-SLAM2's ORBmatcher thresholds.
+inline constexpr int kHammingLow = 50;      ///< TH_LOW: best distance accepted
+inline constexpr double kMatchRatio = 0.6;  ///< best < ratio * second best
+inline constexpr int kRotationBins = 30;    ///< rotation-consistency histogram over 360 degrees
+
+/// Covisible keyframes used for triangulation and fusion (ORB-SLAM2's stereo setting: 10).
+inline constexpr std::size_t kNeighbours = 10;
+/// A recent point two keyframes old with at most this many observations (stereo ones counting
+/// twice) is culled: ORB-SLAM2's cnThObs for stereo, compared with <= as ORB-SLAM2 does.
+inline constexpr int kMaxRecentObservationsToCull = 3;
+
+/// Hamming distance of two descriptors on 64-bit words (same value as porta::slam::hamming_distance).
+int descriptor_distance(const Descriptor& a, const Descriptor& b);
+
+/// Step 1 (caller holds the lock): makes sure every point tracking matched (following merges) is
+/// observed by `keyframe`, refreshes the points' normals, depth ranges and descriptors, and updates
+/// the keyframe's covisibility edges. Returns the points `keyframe` created (first_keyframe_id ==
+/// keyframe->id), which the recent-point culling watches.
+std::vector<MapPoint*> link_keyframe_points(KeyFrame* keyframe, const ScalePyramid& pyramid);
+
+/// Step 2 (caller holds the lock): ORB-SLAM2's MapPointCulling over `recent` as of keyframe
+/// `current_keyframe_id`; culled points go bad, points old enough leave the list. Returns the
+/// number culled.
+int cull_recent_points(std::vector<MapPoint*>& recent, std::uint64_t current_keyframe_id);
+
+/// Step 3 (locks the map itself): creates points from matches between the keyframe's unmatched
+/// features and those of its best covisible keyframes; appends them to `recent`. `should_stop` is
+/// asked before every neighbour but the first (more keyframes waiting). Returns the count created.
+int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
+                           const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
+                           const std::function<bool()>& should_stop);
+
+/// Step 4 (caller holds the lock): ORB-SLAM2's SearchInNeighbors. Returns the number of points
+/// merged into another (Map::replace).
+int fuse_with_neighbours(KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid);
+
+/// Projects `points` into `keyframe` and fuses each with the best-matching feature in a window of
+/// radius_factor * scale of its predicted level (ORB-SLAM2's ORBmatcher::Fuse). Caller holds the
+/// lock. Returns the number of points merged (Map::replace); `added`, when given, counts the
+/// observations added to features without a point.
+int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, const StereoCamera& camera,
+                     const ScalePyramid& pyramid, double radius_factor = 3.0, int* added = nullptr);
+
+/// Step 5 (locks the map itself): local bundle adjustment around `keyframe`; keyframe 0 is never
+/// moved. Returns the number of outlier observations erased.
+int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
+                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag);
+
+/// Step 6 (caller holds the lock): culls the covisible keyframes of `keyframe` whose close points
+/// are at least 90% seen by 3 other keyframes at the same or a finer scale. Returns the count.
+int cull_redundant_keyframes(KeyFrame* keyframe, double close_depth_m);
+
+}  // namespace porta::slam::mapping

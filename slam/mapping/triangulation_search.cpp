@@ -1,0 +1,297 @@
+// Local mapping step 3: new map points by triangulation (after ORB-SLAM2's CreateNewMapPoints).
+//
+// There is no bag-of-words vocabulary, so the candidate matches between two keyframes come from a
+// brute-force search of the unmatched features constrained by the epipolar geometry: a feature of
+// the neighbour is a candidate when it lies within the 95% (1 DoF, 3.84 sigma^2) band around the
+// epipolar line of the keyframe's feature. The best candidate must be within TH_LOW and clearly
+// better than the second (ratio 0.6); a neighbour feature keeps only its best partner; the
+// rotation-consistency histogram removes matches whose orientation change disagrees with most.
+//
+// Locking: per neighbour, the poses and the unmatched feature lists are copied under Map::mutex,
+// the search and triangulation run without it (features are immutable), and the points are
+// created under it after checking that both features are still unmatched.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <mutex>
+#include <optional>
+
+#include "mapping_steps.hpp"
+#include "porta/slam/optim/chi2.hpp"
+#include "porta/slam/optim/triangulation.hpp"
+
+namespace porta::slam::mapping {
+namespace {
+
+constexpr double kEpipolarChi2 = 3.84;  // chi-square, 1 DoF, 95%
+
+struct Match {
+  int feature1 = -1;
+  int feature2 = -1;
+  int distance = 0;
+};
+
+struct NewPoint {
+  int feature1 = -1;
+  int feature2 = -1;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+};
+
+bool feature_is_free(const KeyFrame& keyframe, std::size_t feature) {
+  const MapPoint* point = keyframe.points[feature];
+  return point == nullptr || point->bad;
+}
+
+std::vector<int> free_features(const KeyFrame& keyframe) {
+  std::vector<int> out;
+  for (std::size_t i = 0; i < keyframe.points.size(); ++i) {
+    if (feature_is_free(keyframe, i)) out.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+/// F12 with x1^T F12 x2 = 0 for pixels x1 of keyframe 1 and x2 of keyframe 2 seeing one point.
+Eigen::Matrix3d fundamental_matrix(const SE3& T_1w, const SE3& T_2w, const StereoCamera& camera) {
+  const SE3 T_12 = T_1w * T_2w.inverse();
+  Eigen::Matrix3d K_inv;
+  K_inv << 1.0 / camera.fx, 0.0, -camera.cx / camera.fx, 0.0, 1.0 / camera.fy, -camera.cy / camera.fy, 0.0,
+      0.0, 1.0;
+  return K_inv.transpose() * skew(T_12.translation()) * T_12.linear() * K_inv;
+}
+
+/// Keeps the matches whose orientation change falls in the three most populated histogram bins
+/// (the second and third only when they hold at least a tenth of the first), as ORB-SLAM2.
+void keep_consistent_rotations(std::vector<Match>& matches, const FrameFeatures& f1,
+                               const FrameFeatures& f2) {
+  std::array<int, kRotationBins> counts{};
+  std::vector<int> bins(matches.size());
+  constexpr double kTwoPi = 6.283185307179586;
+  for (std::size_t m = 0; m < matches.size(); ++m) {
+    double change = static_cast<double>(f1.angle_rad[static_cast<std::size_t>(matches[m].feature1)]) -
+                    static_cast<double>(f2.angle_rad[static_cast<std::size_t>(matches[m].feature2)]);
+    change = std::fmod(change, kTwoPi);
+    if (change < 0.0) change += kTwoPi;
+    bins[m] = static_cast<int>(std::lround(change / kTwoPi * kRotationBins)) % kRotationBins;
+    ++counts[static_cast<std::size_t>(bins[m])];
+  }
+  std::array<int, 3> top{-1, -1, -1};  // bin indices, most populated first (ties: smaller bin)
+  for (int b = 0; b < kRotationBins; ++b) {
+    const int c = counts[static_cast<std::size_t>(b)];
+    if (c == 0) continue;
+    for (std::size_t k = 0; k < top.size(); ++k) {
+      if (top[k] < 0 || c > counts[static_cast<std::size_t>(top[k])]) {
+        for (std::size_t j = top.size() - 1; j > k; --j) top[j] = top[j - 1];
+        top[k] = b;
+        break;
+      }
+    }
+  }
+  if (top[0] < 0) return;
+  const double max_count = counts[static_cast<std::size_t>(top[0])];
+  if (top[1] >= 0 && counts[static_cast<std::size_t>(top[1])] < 0.1 * max_count) top[1] = top[2] = -1;
+  if (top[2] >= 0 && counts[static_cast<std::size_t>(top[2])] < 0.1 * max_count) top[2] = -1;
+  std::vector<Match> kept;
+  for (std::size_t m = 0; m < matches.size(); ++m) {
+    if (bins[m] == top[0] || bins[m] == top[1] || bins[m] == top[2]) kept.push_back(matches[m]);
+  }
+  matches = std::move(kept);
+}
+
+/// Epipolar-constrained brute-force search between the free features of two keyframes.
+std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::vector<int>& free1,
+                                            const FrameFeatures& f2, const std::vector<int>& free2,
+                                            const Eigen::Matrix3d& F12, const Eigen::Vector2d& epipole2,
+                                            const ScalePyramid& pyramid) {
+  // Best partner of each feature of keyframe 2 (index into `matches`, -1 none): uniqueness.
+  std::vector<int> taken_by(f2.size(), -1);
+  std::vector<Match> matches;
+  for (const int i1 : free1) {
+    const auto s1 = static_cast<std::size_t>(i1);
+    const Eigen::Vector3d line = F12.transpose() * Eigen::Vector3d(f1.uv[s1].x(), f1.uv[s1].y(), 1.0);
+    const double line_norm2 = line.x() * line.x() + line.y() * line.y();
+    if (!(line_norm2 > 0.0)) continue;
+    const bool stereo1 = f1.has_depth(s1);
+    int best = 256, second = 256, best_i2 = -1;
+    for (const int i2 : free2) {
+      const auto s2 = static_cast<std::size_t>(i2);
+      const double u2 = f2.uv[s2].x(), v2 = f2.uv[s2].y();
+      const double num = line.x() * u2 + line.y() * v2 + line.z();
+      if (num * num >= kEpipolarChi2 * pyramid.sigma2[f2.level[s2]] * line_norm2) continue;
+      if (!stereo1 && !f2.has_depth(s2)) {
+        // Too close to the epipole: the ray is nearly along the baseline, depth is ill-defined.
+        const double dx = epipole2.x() - u2, dy = epipole2.y() - v2;
+        if (dx * dx + dy * dy < 100.0 * pyramid.scale[f2.level[s2]]) continue;
+      }
+      const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[s2]);
+      if (distance < best) {
+        second = best;
+        best = distance;
+        best_i2 = i2;
+      } else if (distance < second) {
+        second = distance;
+      }
+    }
+    if (best_i2 < 0 || best > kHammingLow || !(best < kMatchRatio * second)) continue;
+    int& owner = taken_by[static_cast<std::size_t>(best_i2)];
+    if (owner >= 0) {
+      Match& previous = matches[static_cast<std::size_t>(owner)];
+      if (previous.distance <= best) continue;  // ties keep the smaller feature index
+      previous = {i1, best_i2, best};
+    } else {
+      owner = static_cast<int>(matches.size());
+      matches.push_back({i1, best_i2, best});
+    }
+  }
+  keep_consistent_rotations(matches, f1, f2);
+  return matches;
+}
+
+/// One view of a match: pose, keypoint and whether the keypoint has a stereo match.
+struct View {
+  SE3 T_cw;
+  Eigen::Vector3d center;
+  double u = 0.0, v = 0.0, u_right = -1.0, depth = -1.0;
+  int level = 0;
+  bool stereo() const { return depth > 0.0; }
+};
+
+View make_view(const SE3& T_cw, const Eigen::Vector3d& center, const FrameFeatures& f, int feature) {
+  const auto s = static_cast<std::size_t>(feature);
+  View view{T_cw, center};
+  view.u = f.uv[s].x();
+  view.v = f.uv[s].y();
+  view.level = f.level[s];
+  if (f.has_depth(s)) {
+    view.u_right = f.u_right[s];
+    view.depth = f.depth_m[s];
+  }
+  return view;
+}
+
+bool reprojects(const StereoCamera& camera, const View& view, const Eigen::Vector3d& point, double sigma2) {
+  return view.stereo() ? optim::stereo_reprojection_within(camera, view.T_cw, point, view.u, view.v,
+                                                           view.u_right, sigma2, optim::kChi2Stereo95)
+                       : optim::reprojection_within(camera, view.T_cw, point, view.u, view.v, sigma2,
+                                                    optim::kChi2Mono95);
+}
+
+/// ORB-SLAM2's choice between linear triangulation (enough ray parallax) and the stereo depth of
+/// whichever view has the larger stereo parallax, then its checks: positive depth, reprojection
+/// chi2 in both views and scale consistency.
+std::optional<Eigen::Vector3d> triangulate_match(const StereoCamera& camera, const ScalePyramid& pyramid,
+                                                 const View& view1, const View& view2) {
+  const Eigen::Vector2d x1 = optim::normalize_pixel(camera, view1.u, view1.v);
+  const Eigen::Vector2d x2 = optim::normalize_pixel(camera, view2.u, view2.v);
+  const double cos_rays = optim::ray_parallax_cosine(view1.T_cw, x1, view2.T_cw, x2);
+  // Parallax of the stereo pair at the measured depth: the angle the baseline subtends.
+  const double half_baseline = 0.5 * camera.baseline_m;
+  const double cos_stereo1 = view1.stereo() ? std::cos(2.0 * std::atan2(half_baseline, view1.depth)) : 2.0;
+  const double cos_stereo2 = view2.stereo() ? std::cos(2.0 * std::atan2(half_baseline, view2.depth)) : 2.0;
+  const double cos_stereo = std::min({cos_rays + 1.0, cos_stereo1, cos_stereo2});
+
+  std::optional<Eigen::Vector3d> point;
+  if (cos_rays < cos_stereo && cos_rays > 0.0 &&
+      (view1.stereo() || view2.stereo() || cos_rays < optim::kMaxParallaxCosine)) {
+    point = optim::triangulate_linear(view1.T_cw, x1, view2.T_cw, x2);
+  } else if (view1.stereo() && cos_stereo1 < cos_stereo2) {
+    point = optim::stereo_backproject_world(camera, view1.T_cw, view1.u, view1.v, view1.u_right);
+  } else if (view2.stereo() && cos_stereo2 < cos_stereo1) {
+    point = optim::stereo_backproject_world(camera, view2.T_cw, view2.u, view2.v, view2.u_right);
+  }
+  if (!point) return std::nullopt;
+  if (!optim::has_positive_depth(view1.T_cw, *point) || !optim::has_positive_depth(view2.T_cw, *point)) {
+    return std::nullopt;
+  }
+  if (!reprojects(camera, view1, *point, pyramid.sigma2[static_cast<std::size_t>(view1.level)]) ||
+      !reprojects(camera, view2, *point, pyramid.sigma2[static_cast<std::size_t>(view2.level)])) {
+    return std::nullopt;
+  }
+  const double distance1 = (*point - view1.center).norm();
+  const double distance2 = (*point - view2.center).norm();
+  if (!(distance1 > 0.0) || !(distance2 > 0.0)) return std::nullopt;
+  const double ratio_distance = distance2 / distance1;
+  const double ratio_octave = pyramid.scale[static_cast<std::size_t>(view1.level)] /
+                              pyramid.scale[static_cast<std::size_t>(view2.level)];
+  const double ratio_factor = 1.5 * pyramid.scale_factor;
+  if (ratio_distance * ratio_factor < ratio_octave || ratio_distance > ratio_octave * ratio_factor) {
+    return std::nullopt;
+  }
+  return point;
+}
+
+}  // namespace
+
+int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
+                           const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
+                           const std::function<bool()>& should_stop) {
+  const StereoCamera& camera = settings.camera;
+  std::vector<KeyFrame*> neighbours;
+  {
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad) return 0;
+    neighbours = keyframe->best_covisibles(kNeighbours);
+  }
+  const FrameFeatures& f1 = *keyframe->features;
+  int created = 0;
+  for (std::size_t n = 0; n < neighbours.size(); ++n) {
+    if (n > 0 && should_stop && should_stop()) break;
+    KeyFrame* other = neighbours[n];
+    SE3 T_1w, T_2w;
+    std::vector<int> free1, free2;
+    {
+      std::lock_guard lock(map.mutex);
+      if (keyframe->bad || other->bad) continue;
+      T_1w = keyframe->T_cw;
+      T_2w = other->T_cw;
+      free1 = free_features(*keyframe);
+      free2 = free_features(*other);
+    }
+    const Eigen::Vector3d center1 = T_1w.inverse().translation();
+    const Eigen::Vector3d center2 = T_2w.inverse().translation();
+    // Stereo: a baseline shorter than the camera's own gives nothing its stereo depth does not.
+    if ((center2 - center1).norm() < camera.baseline_m) continue;
+
+    const FrameFeatures& f2 = *other->features;
+    const Eigen::Vector3d c1_in_2 = T_2w * center1;
+    Eigen::Vector2d epipole2(-1e9, -1e9);
+    if (std::abs(c1_in_2.z()) > 1e-12) {
+      epipole2 = {camera.fx * c1_in_2.x() / c1_in_2.z() + camera.cx,
+                  camera.fy * c1_in_2.y() / c1_in_2.z() + camera.cy};
+    }
+    const std::vector<Match> matches = search_for_triangulation(
+        f1, free1, f2, free2, fundamental_matrix(T_1w, T_2w, camera), epipole2, pyramid);
+
+    std::vector<NewPoint> new_points;
+    for (const Match& match : matches) {
+      const View view1 = make_view(T_1w, center1, f1, match.feature1);
+      const View view2 = make_view(T_2w, center2, f2, match.feature2);
+      if (const auto point = triangulate_match(camera, pyramid, view1, view2)) {
+        new_points.push_back({match.feature1, match.feature2, *point});
+      }
+    }
+
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad || other->bad) continue;
+    for (const NewPoint& candidate : new_points) {
+      const auto s1 = static_cast<std::size_t>(candidate.feature1);
+      const auto s2 = static_cast<std::size_t>(candidate.feature2);
+      if (!feature_is_free(*keyframe, s1) || !feature_is_free(*other, s2)) continue;
+      MapPoint* point = map.add_point(candidate.position, keyframe, keyframe->frame_id);
+      Map::add_observation(point, keyframe, candidate.feature1);
+      Map::add_observation(point, other, candidate.feature2);
+      point->update_descriptor();
+      point->update_normal_and_depth(pyramid);
+      recent.push_back(point);
+      ++created;
+    }
+  }
+  return created;
+}
+
+}  // namespace porta::slam::mapping

@@ -1,0 +1,207 @@
+// ORB-SLAM2-style local bundle adjustment on Ceres; see local_bundle_adjustment.hpp.
+#include "porta/slam/optim/local_bundle_adjustment.hpp"
+
+#include <ceres/iteration_callback.h>
+#include <ceres/loss_function.h>
+#include <ceres/ordered_groups.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "porta/slam/optim/reprojection_costs.hpp"
+#include "porta/slam/optim/se3_manifold.hpp"
+#include "solver_setup.hpp"
+
+namespace porta::slam::optim {
+namespace {
+
+class StopFlagCallback final : public ceres::IterationCallback {
+ public:
+  explicit StopFlagCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return flag_->load(std::memory_order_relaxed) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                  : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* flag_;
+};
+
+void validate_input(std::span<const BaKeyframe> keyframes, std::span<const Eigen::Vector3d> points,
+                    std::span<const BaObservation> observations) {
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    const BaObservation& o = observations[i];
+    const std::string where = "local_bundle_adjustment: observation " + std::to_string(i);
+    if (o.keyframe >= keyframes.size()) {
+      throw std::invalid_argument(where + " names keyframe " + std::to_string(o.keyframe) + " of " +
+                                  std::to_string(keyframes.size()));
+    }
+    if (o.point >= points.size()) {
+      throw std::invalid_argument(where + " names point " + std::to_string(o.point) + " of " +
+                                  std::to_string(points.size()));
+    }
+    if (!(o.sigma2 > 0.0) || !std::isfinite(o.sigma2)) {
+      throw std::invalid_argument(where + " has sigma2 " + std::to_string(o.sigma2) +
+                                  " (must be finite and > 0: level_sigma2())");
+    }
+  }
+}
+
+}  // namespace
+
+LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
+                                                    std::span<const BaKeyframe> keyframes,
+                                                    std::span<const Eigen::Vector3d> points,
+                                                    std::span<const BaObservation> observations,
+                                                    const LocalBundleAdjustmentOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  camera.validate();
+  validate_input(keyframes, points, observations);
+  const std::size_t n = observations.size();
+
+  LocalBundleAdjustmentResult result;
+  result.T_cw.reserve(keyframes.size());
+  for (const BaKeyframe& kf : keyframes) result.T_cw.push_back(kf.T_cw);
+  result.points.assign(points.begin(), points.end());
+
+  // Parameter storage the Ceres problems point into; rebuilt problems share it.
+  std::vector<PoseParams> poses(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k) poses[k] = pose_to_params(keyframes[k].T_cw);
+  std::vector<Eigen::Vector3d> xyz(points.begin(), points.end());
+
+  const ProjectionModel model = ProjectionModel::from(camera);
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+  std::vector<double> sqrt_info(n);
+  costs.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const BaObservation& o = observations[i];
+    sqrt_info[i] = 1.0 / std::sqrt(o.sigma2);
+    if (o.is_stereo()) {
+      costs.push_back(std::make_unique<StereoReprojectionCost>(
+          model, StereoMeasurement{o.u_left, o.v, o.u_right}, sqrt_info[i]));
+    } else {
+      costs.push_back(std::make_unique<MonoReprojectionCost>(model, o.u_left, o.v, sqrt_info[i]));
+    }
+  }
+  ceres::HuberLoss huber_mono(std::sqrt(options.chi2_mono));
+  ceres::HuberLoss huber_stereo(std::sqrt(options.chi2_stereo));
+  Se3Manifold manifold;
+  StopFlagCallback stop_callback(options.stop_flag);
+  const auto stop_requested = [&] {
+    return options.stop_flag != nullptr && options.stop_flag->load(std::memory_order_relaxed);
+  };
+
+  // chi2 test of ORB-SLAM2: whitened squared residual under the threshold, point in front.
+  const auto passes = [&](std::size_t i, double* pixel_sq_error) {
+    const BaObservation& o = observations[i];
+    const double* const params[] = {poses[o.keyframe].data(), xyz[o.point].data()};
+    double r[3] = {0.0, 0.0, 0.0};
+    if (!costs[i]->Evaluate(params, r, nullptr)) return false;
+    const double chi2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    if (pixel_sq_error != nullptr) *pixel_sq_error = chi2 * o.sigma2;
+    const double threshold = o.is_stereo() ? options.chi2_stereo : options.chi2_mono;
+    return chi2 <= threshold && transform_to_camera(poses[o.keyframe].data(), xyz[o.point]).z() > 0.0;
+  };
+
+  const auto run_stage = [&](const std::vector<bool>& active, int iterations, bool robust,
+                             ceres::Solver::Summary* summary) {
+    ceres::Problem problem(detail::borrowing_problem_options());
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    std::vector<bool> pose_added(keyframes.size(), false);
+    std::vector<bool> point_added(xyz.size(), false);
+    int residual_blocks = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!active[i]) continue;
+      const BaObservation& o = observations[i];
+      double* pose = poses[o.keyframe].data();
+      double* point = xyz[o.point].data();
+      if (!pose_added[o.keyframe]) {
+        pose_added[o.keyframe] = true;
+        problem.AddParameterBlock(pose, kPoseAmbientSize, &manifold);
+        if (keyframes[o.keyframe].fixed) problem.SetParameterBlockConstant(pose);
+        ordering->AddElementToGroup(pose, 1);
+      }
+      if (!point_added[o.point]) {
+        point_added[o.point] = true;
+        problem.AddParameterBlock(point, 3);
+        ordering->AddElementToGroup(point, 0);  // points first: eliminated by the Schur complement
+      }
+      ceres::LossFunction* loss = nullptr;
+      if (robust) loss = o.is_stereo() ? &huber_stereo : &huber_mono;
+      problem.AddResidualBlock(costs[i].get(), loss, pose, point);
+      ++residual_blocks;
+    }
+    if (residual_blocks == 0) return false;
+    ceres::Solver::Options solver_options = detail::quiet_solver_options(iterations, options.num_threads);
+    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    solver_options.linear_solver_ordering = ordering;
+    if (options.stop_flag != nullptr) solver_options.callbacks.push_back(&stop_callback);
+    ceres::Solve(solver_options, &problem, summary);
+    result.iterations += summary->num_successful_steps + summary->num_unsuccessful_steps;
+    return true;
+  };
+
+  // Stage 1: robust, everything in front of its camera (a point behind it would project mirrored).
+  std::vector<bool> active(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const BaObservation& o = observations[i];
+    active[i] = transform_to_camera(poses[o.keyframe].data(), xyz[o.point]).z() > 0.0;
+  }
+  ceres::Solver::Summary summary;
+  bool solved = false;
+  if (stop_requested()) {
+    result.stopped = true;
+  } else {
+    solved = run_stage(active, options.first_iterations, true, &summary);
+    if (solved) result.initial_cost = summary.initial_cost;
+  }
+  // Stage 2: without the outliers of stage 1 and without the robust loss.
+  if (solved) {
+    if (summary.termination_type == ceres::USER_SUCCESS || stop_requested()) {
+      result.stopped = true;
+    } else {
+      for (std::size_t i = 0; i < n; ++i) active[i] = passes(i, nullptr);
+      ceres::Solver::Summary second;
+      if (run_stage(active, options.second_iterations, false, &second)) {
+        summary = second;
+        result.stopped = summary.termination_type == ceres::USER_SUCCESS;
+      }
+    }
+  }
+  if (solved) result.final_cost = summary.final_cost;
+
+  double sum_sq = 0.0;
+  std::size_t coordinates = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    double pixel_sq = 0.0;
+    if (passes(i, &pixel_sq)) {
+      sum_sq += pixel_sq;
+      coordinates += observations[i].is_stereo() ? 3 : 2;
+    } else {
+      result.outlier_observations.push_back(i);
+    }
+  }
+  result.final_rmse_px = coordinates > 0 ? std::sqrt(sum_sq / static_cast<double>(coordinates)) : 0.0;
+
+  if (solved) {
+    std::vector<bool> point_seen(xyz.size(), false);
+    std::vector<bool> pose_seen(keyframes.size(), false);
+    for (const BaObservation& o : observations) {
+      point_seen[o.point] = true;
+      pose_seen[o.keyframe] = true;
+    }
+    for (std::size_t k = 0; k < keyframes.size(); ++k) {
+      if (pose_seen[k] && !keyframes[k].fixed) result.T_cw[k] = params_to_pose(poses[k].data());
+    }
+    for (std::size_t p = 0; p < xyz.size(); ++p) {
+      if (point_seen[p]) result.points[p] = xyz[p];
+    }
+  }
+  result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace porta::slam::optim

@@ -1,0 +1,105 @@
+#include "porta/slam/system.hpp"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace porta::slam {
+
+namespace {
+
+std::int64_t elapsed_ns(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+System::System(const SlamSettings& settings, Backend& backend, RunMode mode)
+    : settings_(settings), mode_(mode), backend_(backend) {
+  settings_.validate();
+  // Stage profiling synchronises between kernels; it costs nothing on the cpu backend and little
+  // at SLAM frame rates elsewhere, and it separates the stereo matching time for the statistics.
+  FrontendOptions options;
+  options.profile_stages = true;
+  frontend_ = std::make_unique<Frontend>(backend_, settings_.frontend, settings_.camera.width,
+                                         settings_.camera.height, options);
+  mapper_ = std::make_unique<LocalMapper>(settings_, map_);
+  tracker_ = std::make_unique<Tracker>(settings_, map_, *mapper_, backend_, frontend_->tables());
+  if (mode_ == RunMode::realtime) mapper_->start();
+}
+
+System::~System() { finish(); }
+
+void System::finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (mode_ == RunMode::realtime) {
+    mapper_->stop();
+  } else {
+    mapper_->process_all();
+  }
+}
+
+TrackingResult System::process(const StereoPair& pair) {
+  if (finished_) throw std::logic_error("System::process called after finish()");
+  const StereoCamera& camera = settings_.camera;
+  if (pair.left.width() != camera.width || pair.left.height() != camera.height ||
+      pair.right.width() != camera.width || pair.right.height() != camera.height) {
+    throw std::invalid_argument("stereo pair " + std::to_string(pair.index) + " is " +
+                                std::to_string(pair.left.width()) + "x" + std::to_string(pair.left.height()) +
+                                " (right " + std::to_string(pair.right.width()) + "x" +
+                                std::to_string(pair.right.height()) + ") but the camera is " +
+                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  FrameTimes times;
+  const StereoFeatures stereo = frontend_->detect_stereo(pair.left.view(), pair.right.view());
+  times.frontend_ns = elapsed_ns(start);
+  times.stereo_ns = frontend_->last_times().stereo_ns;
+  auto features = std::make_shared<const FrameFeatures>(
+      FrameFeatures::from_frontend(stereo, frontend_->tables(), camera, settings_.min_disparity_px));
+
+  const auto track_start = std::chrono::steady_clock::now();
+  TrackingResult result = tracker_->track(static_cast<std::uint64_t>(records_.size()), pair.time_s, features);
+  times.tracking_ns = elapsed_ns(track_start);
+
+  FrameRecord record;
+  record.time_s = pair.time_s;
+  if (result.state == TrackingState::ok && result.reference_keyframe != nullptr) {
+    std::lock_guard<std::mutex> lock(map_.mutex);
+    record.tracked = true;
+    record.reference = result.reference_keyframe;
+    record.T_c_ref = result.T_cw * result.reference_keyframe->T_cw.inverse();
+  }
+  records_.push_back(record);
+
+  // Deterministic mode: the map is complete for this keyframe before the next frame is tracked.
+  if (mode_ == RunMode::deterministic && result.keyframe_inserted) mapper_->process_all();
+  times.total_ns = elapsed_ns(start);
+  frame_times_.push_back(times);
+  results_.push_back(result);
+  return result;
+}
+
+Trajectory System::trajectory() const {
+  std::lock_guard<std::mutex> lock(map_.mutex);
+  Trajectory trajectory;
+  for (const FrameRecord& record : records_) {
+    if (!record.tracked) continue;
+    // A culled reference keyframe keeps the last pose it had, which stays a good anchor for the
+    // frames that referred to it (no loop closing moves keyframes far after culling).
+    const SE3 T_cw = record.T_c_ref * record.reference->T_cw;
+    trajectory.poses.push_back({record.time_s, T_cw.inverse()});
+  }
+  return trajectory;
+}
+
+Trajectory System::keyframe_trajectory() const {
+  std::lock_guard<std::mutex> lock(map_.mutex);
+  Trajectory trajectory;
+  for (const KeyFrame* keyframe : map_.keyframes()) {
+    trajectory.poses.push_back({keyframe->time_s, keyframe->T_cw.inverse()});
+  }
+  return trajectory;
+}
+
+}  // namespace porta::slam

@@ -1,0 +1,503 @@
+// Tracking after ORB-SLAM2's stereo Tracking (written from its description); see tracker.hpp.
+//
+// One track() call holds Map::mutex from start to end: every step reads or writes map objects, and
+// local mapping must not move points under a pose optimisation. Every loop that decides something
+// runs over feature indices or id-ordered containers, so the same frames give the same bits.
+#include "porta/slam/tracker.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <string>
+#include <unordered_set>
+#include <utility>
+
+#include "frame_search.hpp"
+#include "porta/slam/projection_matcher.hpp"
+
+namespace porta::slam {
+
+const char* to_string(TrackingState state) {
+  switch (state) {
+    case TrackingState::not_initialized:
+      return "not initialized";
+    case TrackingState::ok:
+      return "ok";
+    case TrackingState::lost:
+      return "lost";
+  }
+  return "?";
+}
+
+namespace {
+
+// ORB-SLAM2's constants for stereo tracking.
+constexpr double kMotionWindowPx = 7.0;     // motion-model search window at level 0 (doubled on retry)
+constexpr int kMotionMinMatches = 20;       // matches needed before optimising the motion-model pose
+constexpr double kKeyframeWindowPx = 15.0;  // fallback: wide window, no bag-of-words vocabulary here
+constexpr int kKeyframeMinMatches = 15;
+constexpr int kMinPoseInliers = 10;
+constexpr double kLocalMapWindow = 1.0;  // th of the local-map search (3 after relocalisation)
+constexpr std::size_t kMaxLocalKeyframes = 80;
+constexpr std::size_t kCovisiblesPerKeyframe = 10;
+
+std::int64_t elapsed_ns(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - since)
+      .count();
+}
+
+/// The keyframe itself, or its closest good ancestor when local mapping culled it.
+KeyFrame* good_or_ancestor(KeyFrame* keyframe) {
+  while (keyframe != nullptr && keyframe->bad) keyframe = keyframe->parent;
+  return keyframe;
+}
+
+void check_features(const FrameFeatures& f, int levels) {
+  const std::size_t n = f.size();
+  auto require = [&](std::size_t size, const char* field) {
+    if (size != n) {
+      throw std::invalid_argument(std::string("Tracker::track: FrameFeatures::") + field + " has " +
+                                  std::to_string(size) + " entries, uv has " + std::to_string(n));
+    }
+  };
+  require(f.level.size(), "level");
+  require(f.angle_rad.size(), "angle_rad");
+  require(f.descriptors.size(), "descriptors");
+  require(f.u_right.size(), "u_right");
+  require(f.depth_m.size(), "depth_m");
+  if (!f.keypoints.empty()) require(f.keypoints.size(), "keypoints");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (f.level[i] >= levels) {
+      throw std::invalid_argument("Tracker::track: feature " + std::to_string(i) + " is on level " +
+                                  std::to_string(f.level[i]) + ", the pyramid has " + std::to_string(levels));
+    }
+  }
+}
+
+}  // namespace
+
+struct Tracker::Impl {
+  Impl(const SlamSettings& s, Map& m, LocalMapper& lm, Backend& backend, const FrontendTables& tables)
+      : settings(s),
+        map(m),
+        mapper(lm),
+        pyramid(tables.settings.levels, tables.settings.scale_factor),
+        scales_q16(tables.scales_q16),
+        geometry{settings.camera, pyramid, scales_q16},
+        matcher(settings.projection_on_backend ? &backend : nullptr, scales_q16) {}
+
+  bool initialize(Frame& frame, TrackingResult& result);
+  bool track_motion_model(Frame& frame, Frame& last, TrackingResult& result);
+  bool track_reference_keyframe(Frame& frame, const Frame& last, TrackingResult& result);
+  bool track_local_map(Frame& frame, TrackingResult& result);
+  void update_last_frame(Frame& last) const;
+  void update_local_keyframes(Frame& frame);
+  void update_local_points();
+  int search_local_points(Frame& frame);
+  bool need_new_keyframe(const Frame& frame) const;
+  KeyFrame* create_keyframe(Frame& frame);
+
+  const SlamSettings settings;
+  Map& map;
+  LocalMapper& mapper;
+  const ScalePyramid pyramid;
+  const std::vector<std::int32_t> scales_q16;
+  const tracking::SearchGeometry geometry;
+  ProjectionMatcher matcher;
+
+  SE3 velocity = SE3::Identity();  // T_cw(k) * T_wc(k-1)
+  bool has_velocity = false;
+  KeyFrame* reference_keyframe = nullptr;
+  std::uint64_t last_keyframe_frame_id = 0;
+  SE3 T_last_ref = SE3::Identity();  // last frame relative to its reference keyframe
+  int local_map_inliers = 0;
+  std::vector<KeyFrame*> local_keyframes;
+  std::vector<MapPoint*> local_points;
+  std::string lost_reason;
+};
+
+// ---- Initialisation -----------------------------------------------------------------------------
+
+bool Tracker::Impl::initialize(Frame& frame, TrackingResult& result) {
+  const FrameFeatures& f = *frame.features;
+  int stereo = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) stereo += f.has_depth(i) ? 1 : 0;
+  if (stereo < settings.min_init_stereo_points) {
+    result.lost_reason = "not initialised: frame " + std::to_string(frame.id) + " has " +
+                         std::to_string(stereo) +
+                         " stereo points, initialisation needs min_init_stereo_points = " +
+                         std::to_string(settings.min_init_stereo_points);
+    return false;
+  }
+  frame.T_cw = SE3::Identity();
+  frame.has_pose = true;
+  KeyFrame* keyframe = map.add_keyframe(frame);
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (!f.has_depth(i)) continue;
+    MapPoint* point = map.add_point(frame.unproject_stereo(i, settings.camera), keyframe, frame.id);
+    Map::add_observation(point, keyframe, static_cast<int>(i));
+    point->update_descriptor();
+    point->update_normal_and_depth(pyramid);
+    frame.points[i] = point;
+  }
+  frame.reference_keyframe = keyframe;
+  reference_keyframe = keyframe;
+  last_keyframe_frame_id = frame.id;
+  local_keyframes = {keyframe};
+  T_last_ref = SE3::Identity();
+  has_velocity = false;
+  mapper.insert_keyframe(keyframe);
+  result.keyframe_inserted = true;
+  return true;
+}
+
+// ---- Motion model and its fallback -------------------------------------------------------------
+
+void Tracker::Impl::update_last_frame(Frame& last) const {
+  // Local mapping may have merged or culled points, and moved the reference keyframe (bundle
+  // adjustment): follow both.
+  for (MapPoint*& point : last.points) {
+    while (point != nullptr && point->bad) point = point->replaced_by;
+  }
+  if (last.reference_keyframe != nullptr && !last.reference_keyframe->bad) {
+    last.T_cw = T_last_ref * last.reference_keyframe->T_cw;
+  }
+}
+
+bool Tracker::Impl::track_motion_model(Frame& frame, Frame& last, TrackingResult& result) {
+  frame.T_cw = velocity * last.T_cw;
+  std::fill(frame.points.begin(), frame.points.end(), nullptr);
+  int matches = tracking::search_last_frame(frame, last, kMotionWindowPx, geometry);
+  if (matches < kMotionMinMatches) {
+    std::fill(frame.points.begin(), frame.points.end(), nullptr);
+    matches = tracking::search_last_frame(frame, last, 2.0 * kMotionWindowPx, geometry);
+  }
+  if (matches < kMotionMinMatches) {
+    lost_reason = "motion model: " + std::to_string(matches) + " matches with the last frame (need " +
+                  std::to_string(kMotionMinMatches) + ")";
+    return false;
+  }
+  tracking::optimize_frame_pose(frame, geometry);
+  result.matches_motion = tracking::discard_outliers(frame);
+  if (result.matches_motion < kMinPoseInliers) {
+    lost_reason = "motion model: " + std::to_string(result.matches_motion) +
+                  " inliers after pose optimisation (need " + std::to_string(kMinPoseInliers) + ")";
+    return false;
+  }
+  return true;
+}
+
+bool Tracker::Impl::track_reference_keyframe(Frame& frame, const Frame& last, TrackingResult& result) {
+  KeyFrame* keyframe = good_or_ancestor(reference_keyframe);
+  if (keyframe == nullptr) {
+    lost_reason += std::string(lost_reason.empty() ? "" : "; ") + "no reference keyframe";
+    return false;
+  }
+  frame.T_cw = last.T_cw;
+  std::fill(frame.points.begin(), frame.points.end(), nullptr);
+  const int matches = tracking::search_keyframe(frame, *keyframe, kKeyframeWindowPx, geometry);
+  const std::string what = "reference keyframe " + std::to_string(keyframe->id) + ": ";
+  if (matches < kKeyframeMinMatches) {
+    lost_reason += (lost_reason.empty() ? "" : "; ") + what + std::to_string(matches) + " matches (need " +
+                   std::to_string(kKeyframeMinMatches) + ")";
+    return false;
+  }
+  tracking::optimize_frame_pose(frame, geometry);
+  result.matches_motion = tracking::discard_outliers(frame);
+  if (result.matches_motion < kMinPoseInliers) {
+    lost_reason += (lost_reason.empty() ? "" : "; ") + what + std::to_string(result.matches_motion) +
+                   " inliers after pose optimisation (need " + std::to_string(kMinPoseInliers) + ")";
+    return false;
+  }
+  return true;
+}
+
+// ---- Local map ----------------------------------------------------------------------------------
+
+void Tracker::Impl::update_local_keyframes(Frame& frame) {
+  // Votes: how many of the frame's points each keyframe observes (id order: deterministic).
+  std::map<KeyFrame*, int, ById> votes;
+  for (MapPoint*& point : frame.points) {
+    if (point == nullptr) continue;
+    if (point->bad) {
+      point = nullptr;
+      continue;
+    }
+    for (const auto& [keyframe, feature] : point->observations) ++votes[keyframe];
+  }
+  if (votes.empty()) return;
+
+  local_keyframes.clear();
+  std::unordered_set<std::uint64_t> included;  // membership only, never iterated
+  KeyFrame* most_shared = nullptr;
+  int most = 0;
+  for (const auto& [keyframe, count] : votes) {
+    if (keyframe->bad) continue;
+    local_keyframes.push_back(keyframe);
+    included.insert(keyframe->id);
+    if (count > most) {
+      most = count;
+      most_shared = keyframe;
+    }
+  }
+  // Widen by a neighbour of each: a covisible keyframe, a child and the parent (as ORB-SLAM2).
+  auto add_first_new = [&](auto&& candidates) {
+    for (KeyFrame* k : candidates) {
+      if (k == nullptr || k->bad || included.count(k->id) != 0) continue;
+      local_keyframes.push_back(k);
+      included.insert(k->id);
+      return;
+    }
+  };
+  const std::size_t voted = local_keyframes.size();
+  for (std::size_t k = 0; k < voted && local_keyframes.size() < kMaxLocalKeyframes; ++k) {
+    KeyFrame* keyframe = local_keyframes[k];
+    add_first_new(keyframe->best_covisibles(kCovisiblesPerKeyframe));
+    std::vector<KeyFrame*> children;
+    for (const auto& [child, unused] : keyframe->children) children.push_back(child);
+    add_first_new(children);
+    add_first_new(std::vector<KeyFrame*>{keyframe->parent});
+  }
+  if (most_shared != nullptr) {
+    reference_keyframe = most_shared;
+    frame.reference_keyframe = most_shared;
+  }
+}
+
+void Tracker::Impl::update_local_points() {
+  local_points.clear();
+  std::unordered_set<std::uint64_t> included;  // membership only, never iterated
+  for (const KeyFrame* keyframe : local_keyframes) {
+    for (MapPoint* point : keyframe->points) {
+      if (point != nullptr && !point->bad && included.insert(point->id).second) local_points.push_back(point);
+    }
+  }
+}
+
+int Tracker::Impl::search_local_points(Frame& frame) {
+  std::unordered_set<std::uint64_t> in_frame;  // membership only, never iterated
+  for (MapPoint* point : frame.points) {
+    if (point == nullptr) continue;
+    ++point->visible;
+    in_frame.insert(point->id);
+  }
+  const Eigen::Vector3d center = frame.center();
+  std::vector<tracking::ProjectedPoint> projected;
+  for (MapPoint* point : local_points) {
+    if (in_frame.count(point->id) != 0) continue;
+    tracking::ProjectedPoint p;
+    if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
+    ++point->visible;
+    projected.push_back(p);
+  }
+  if (projected.empty()) return 0;
+  std::vector<ProjectionQuery> queries;
+  std::vector<Descriptor> descriptors;
+  tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, descriptors);
+  matcher.set_frame(kernel_keypoints(*frame.features, scales_q16), frame.features->descriptors);
+  const std::vector<ProjectionResult> results = matcher.match(queries, descriptors);
+  return tracking::accept_local_matches(frame, projected, queries, results);
+}
+
+bool Tracker::Impl::track_local_map(Frame& frame, TrackingResult& result) {
+  update_local_keyframes(frame);
+  update_local_points();
+  search_local_points(frame);
+  tracking::optimize_frame_pose(frame, geometry);
+  int inliers = 0;
+  for (std::size_t i = 0; i < frame.points.size(); ++i) {
+    MapPoint* point = frame.points[i];
+    if (point == nullptr) continue;
+    if (frame.outlier[i]) {  // stereo: outliers are dropped right away (ORB-SLAM2)
+      frame.points[i] = nullptr;
+      frame.outlier[i] = false;
+      continue;
+    }
+    ++point->found;
+    if (!point->observations.empty()) ++inliers;
+  }
+  result.matches_local_map = inliers;
+  local_map_inliers = inliers;
+  if (inliers < settings.min_tracked_inliers) {
+    lost_reason = "local map: " + std::to_string(inliers) + " inliers after pose optimisation (need " +
+                  "min_tracked_inliers = " + std::to_string(settings.min_tracked_inliers) + ")";
+    return false;
+  }
+  return true;
+}
+
+// ---- Keyframes ----------------------------------------------------------------------------------
+
+bool Tracker::Impl::need_new_keyframe(const Frame& frame) const {
+  if (reference_keyframe == nullptr) return false;
+  const std::size_t keyframes = map.num_keyframes();
+  const int min_observations = keyframes <= 2 ? 2 : 3;
+  const int reference_matches = reference_keyframe->tracked_points(min_observations);
+  const bool mapper_idle = mapper.accepts_keyframes();
+
+  // Close stereo points (reliable depth): tracked ones, and ones a keyframe could turn into points.
+  const FrameFeatures& f = *frame.features;
+  const double close = settings.close_depth_m();
+  int tracked_close = 0, untracked_close = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (!f.has_depth(i) || f.depth_m[i] >= close) continue;
+    if (frame.points[i] != nullptr && !frame.outlier[i]) {
+      ++tracked_close;
+    } else {
+      ++untracked_close;
+    }
+  }
+  const bool need_close = tracked_close < 100 && untracked_close > 70;
+  const double ratio = keyframes < 2 ? 0.4 : 0.75;
+
+  const bool max_frames_passed =
+      frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.max_frames_between_keyframes);
+  const bool idle_and_passed = mapper_idle;  // min frames between keyframes: 0, as ORB-SLAM2 stereo
+  const bool weak = local_map_inliers < 0.25 * reference_matches || need_close;
+  const bool fewer_than_reference =
+      (local_map_inliers < ratio * reference_matches || need_close) && local_map_inliers > 15;
+  if (!((max_frames_passed || idle_and_passed || weak) && fewer_than_reference)) return false;
+  if (mapper_idle) return true;
+  mapper.interrupt_bundle_adjustment();
+  return mapper.queued_keyframes() < 3;
+}
+
+KeyFrame* Tracker::Impl::create_keyframe(Frame& frame) {
+  KeyFrame* keyframe = map.add_keyframe(frame);
+  // The frame's matches go to the keyframe; local mapping links their observations (and
+  // updates their descriptors and normals) when it processes the keyframe.
+  for (std::size_t i = 0; i < frame.points.size(); ++i) {
+    if (frame.points[i] != nullptr && !frame.points[i]->bad) keyframe->points[i] = frame.points[i];
+  }
+  // New points from the closest stereo features: all closer than close_depth_m, at least 100.
+  const FrameFeatures& f = *frame.features;
+  std::vector<std::pair<float, int>> by_depth;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.has_depth(i)) by_depth.emplace_back(f.depth_m[i], static_cast<int>(i));
+  }
+  std::sort(by_depth.begin(), by_depth.end());
+  const double close = settings.close_depth_m();
+  int points = 0;
+  for (const auto& [depth, feature] : by_depth) {
+    const auto i = static_cast<std::size_t>(feature);
+    MapPoint* existing = frame.points[i];
+    if (existing == nullptr || existing->observations.empty()) {
+      MapPoint* point = map.add_point(frame.unproject_stereo(i, settings.camera), keyframe, frame.id);
+      Map::add_observation(point, keyframe, feature);
+      point->update_descriptor();
+      point->update_normal_and_depth(pyramid);
+      frame.points[i] = point;
+      frame.outlier[i] = false;
+    }
+    ++points;
+    if (depth > close && points > 100) break;
+  }
+  frame.reference_keyframe = keyframe;
+  reference_keyframe = keyframe;
+  last_keyframe_frame_id = frame.id;
+  mapper.insert_keyframe(keyframe);
+  return keyframe;
+}
+
+// ---- Tracker ------------------------------------------------------------------------------------
+
+Tracker::Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Backend& backend,
+                 const FrontendTables& tables)
+    : impl_(std::make_unique<Impl>(settings, map, mapper, backend, tables)) {
+  settings.validate();
+  if (tables.scales_q16.size() != static_cast<std::size_t>(tables.settings.levels)) {
+    throw std::invalid_argument("Tracker: the frontend tables have " +
+                                std::to_string(tables.scales_q16.size()) + " level scales for " +
+                                std::to_string(tables.settings.levels) + " levels");
+  }
+}
+
+Tracker::~Tracker() = default;
+
+TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
+                              std::shared_ptr<const FrameFeatures> features) {
+  if (!features)
+    throw std::invalid_argument("Tracker::track: frame " + std::to_string(frame_id) + " has no features");
+  Impl& t = *impl_;
+  check_features(*features, t.pyramid.levels);
+  TrackingResult result;
+  if (state_ == TrackingState::lost) {
+    result.state = TrackingState::lost;
+    result.lost_reason = t.lost_reason;
+    return result;
+  }
+
+  Frame frame(frame_id, time_s, std::move(features), t.settings.camera);
+  const std::lock_guard<std::mutex> lock(t.map.mutex);
+  const auto start = std::chrono::steady_clock::now();
+
+  if (state_ == TrackingState::not_initialized) {
+    if (!t.initialize(frame, result)) return result;
+    state_ = TrackingState::ok;
+    result.lost_reason.clear();
+    result.state = TrackingState::ok;
+    result.T_cw = frame.T_cw;
+    result.reference_keyframe = t.reference_keyframe;
+    result.track_motion_ns = elapsed_ns(start);
+    last_frame_ = std::move(frame);
+    return result;
+  }
+
+  auto lose = [&](const char* step) {
+    state_ = TrackingState::lost;
+    t.lost_reason =
+        "tracking lost at frame " + std::to_string(frame_id) + " (" + step + "): " + t.lost_reason +
+        "; relocalisation is not implemented, frames are not tracked until the pipeline re-initialises";
+    result.state = TrackingState::lost;
+    result.lost_reason = t.lost_reason;
+    return result;
+  };
+
+  // 1-2: motion model, else the reference keyframe.
+  t.update_last_frame(last_frame_);
+  frame.reference_keyframe = t.reference_keyframe;
+  t.lost_reason.clear();
+  bool ok = false;
+  if (t.has_velocity) {
+    ok = t.track_motion_model(frame, last_frame_, result);
+    result.used_motion_model = ok;
+  }
+  if (!ok) ok = t.track_reference_keyframe(frame, last_frame_, result);
+  result.track_motion_ns = elapsed_ns(start);
+  if (!ok) return lose("motion model and reference keyframe");
+
+  // 3: local map.
+  const auto local_start = std::chrono::steady_clock::now();
+  ok = t.track_local_map(frame, result);
+  result.track_local_map_ns = elapsed_ns(local_start);
+  if (!ok) return lose("local map");
+  frame.has_pose = true;
+  t.velocity = frame.T_cw * last_frame_.T_cw.inverse();
+  t.has_velocity = true;
+
+  // 4: keyframe decision.
+  const auto keyframe_start = std::chrono::steady_clock::now();
+  if (t.need_new_keyframe(frame)) {
+    t.create_keyframe(frame);
+    result.keyframe_inserted = true;
+  }
+  // Outliers may go to a new keyframe (bundle adjustment decides), never to the next frame's search.
+  for (std::size_t i = 0; i < frame.points.size(); ++i) {
+    if (frame.outlier[i]) {
+      frame.points[i] = nullptr;
+      frame.outlier[i] = false;
+    }
+  }
+  result.keyframe_ns = elapsed_ns(keyframe_start);
+
+  KeyFrame* reference = good_or_ancestor(frame.reference_keyframe);
+  frame.reference_keyframe = reference;
+  t.T_last_ref = reference != nullptr ? frame.T_cw * reference->T_cw.inverse() : SE3::Identity();
+  result.state = TrackingState::ok;
+  result.T_cw = frame.T_cw;
+  result.reference_keyframe = reference;
+  last_frame_ = std::move(frame);
+  return result;
+}
+
+}  // namespace porta::slam

@@ -1,0 +1,244 @@
+// Local mapping on synthetic keyframes (mapping_scene.hpp): triangulation of the points tracking
+// left unmatched, duplicate fusion, local bundle adjustment with keyframe 0 fixed, keyframe culling,
+// and the realtime and deterministic modes giving the same bytes.
+#if PORTA_SLAM_BUILT
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "mapping_scene.hpp"
+
+namespace porta::slam::mapping_test {
+namespace {
+
+/// Inserts every keyframe of the scene at `poses` and lets the mapper process each before the next.
+void run_deterministic(const SyntheticScene& scene, const std::vector<SE3>& poses, Map& map,
+                       LocalMapper& mapper) {
+  TrackingStandIn tracking(scene, map, mapper);
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    tracking.insert(k, poses[k]);
+    mapper.process_all();
+  }
+}
+
+/// The scene point a map point stands for, when all its observations agree; -1 otherwise.
+int scene_point_of(const MapPoint& point, const SyntheticScene& scene) {
+  int j = -2;
+  for (const auto& [keyframe, feature] : point.observations) {
+    const int t = scene.truth[keyframe->frame_id][static_cast<std::size_t>(feature)];
+    if (j == -2) j = t;
+    if (t != j) return -1;
+  }
+  return j < 0 ? -1 : j;
+}
+
+double center_error_m(const SE3& T_cw, const SE3& truth) {
+  return (T_cw.inverse().translation() - truth.inverse().translation()).norm();
+}
+
+double rotation_error_rad(const SE3& T_cw, const SE3& truth) {
+  return rotation_angle_rad(T_cw.linear() * truth.linear().transpose());
+}
+
+TEST(Mapping, TriangulatesTheUnmatchedFarPointsNearTheTruth) {
+  const SyntheticScene scene{SceneSpec{}};
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  run_deterministic(scene, scene.true_T_cw, map, mapper);
+  ASSERT_EQ(mapper.times().size(), scene.true_T_cw.size());
+  EXPECT_GT(mapper.points_triangulated(), 0u);
+
+  std::lock_guard lock(map.mutex);
+  std::vector<double> errors;
+  std::vector<bool> far_found(scene.points.size(), false);
+  int wrong_associations = 0;
+  for (const MapPoint* point : map.points()) {
+    const int j = scene_point_of(*point, scene);
+    if (j < 0) {
+      ++wrong_associations;
+      continue;
+    }
+    if (scene.points[static_cast<std::size_t>(j)].near) continue;
+    far_found[static_cast<std::size_t>(j)] = true;
+    errors.push_back((point->position - scene.points[static_cast<std::size_t>(j)].position).norm());
+  }
+  ASSERT_GT(errors.size(), 0u);
+  std::sort(errors.begin(), errors.end());
+  const int far_points = SceneSpec{}.far_points;
+  const auto found = std::count(far_found.begin(), far_found.end(), true);
+  std::printf("far points mapped %ld of %d, error median %.4f m, max %.4f m, wrong associations %d\n",
+              static_cast<long>(found), far_points, errors[errors.size() / 2], errors.back(),
+              wrong_associations);
+  EXPECT_GE(found, far_points / 2);
+  EXPECT_LT(errors[errors.size() / 2], 0.03);
+  EXPECT_LT(errors.back(), 0.15);
+  EXPECT_EQ(wrong_associations, 0);
+}
+
+TEST(Mapping, FusionMergesADuplicatedPoint) {
+  SceneSpec spec;
+  spec.keyframes = 2;
+  spec.far_points = 0;
+  spec.clutter = 0;
+  spec.detect_probability = 1.0;
+  const SyntheticScene scene(spec);
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  TrackingStandIn tracking(scene, map, mapper);
+  KeyFrame* first = tracking.insert(0, scene.true_T_cw[0]);
+  mapper.process_all();
+  // A near point both keyframes see: the stand-in gives the second keyframe a new point for it.
+  int duplicated = -1;
+  for (std::size_t i = 0; i < scene.truth[1].size() && duplicated < 0; ++i) {
+    const int j = scene.truth[1][i];
+    if (j >= 0 && tracking.resolve(j) != nullptr) duplicated = j;
+  }
+  ASSERT_GE(duplicated, 0);
+  MapPoint* original = tracking.resolve(duplicated);
+  KeyFrame* second = tracking.insert(1, scene.true_T_cw[1], duplicated);
+  MapPoint* duplicate = tracking.resolve(duplicated);
+  ASSERT_NE(original, duplicate);
+  mapper.process_all();
+
+  std::lock_guard lock(map.mutex);
+  EXPECT_GE(mapper.points_fused(), 1u);
+  EXPECT_TRUE(original->bad != duplicate->bad) << "exactly one of the two survives";
+  const MapPoint* survivor = original->bad ? duplicate : original;
+  const MapPoint* merged = original->bad ? original : duplicate;
+  EXPECT_EQ(merged->replaced_by, survivor);
+  EXPECT_EQ(survivor->observations.size(), 2u);
+  EXPECT_EQ(survivor->observations.count(first), 1u);
+  EXPECT_EQ(survivor->observations.count(second), 1u);
+  for (const auto& [keyframe, feature] : survivor->observations) {
+    EXPECT_EQ(keyframe->points[static_cast<std::size_t>(feature)], survivor);
+  }
+}
+
+TEST(Mapping, BundleAdjustmentReducesPoseErrorsAndKeepsKeyframeZeroFixed) {
+  SceneSpec spec;
+  spec.keyframes = 3;
+  const SyntheticScene scene(spec);
+  std::vector<SE3> poses = scene.true_T_cw;
+  SE3 delta1 = SE3::Identity(), delta2 = SE3::Identity();
+  delta1.linear() = Eigen::AngleAxisd(0.008, Eigen::Vector3d(1, 2, 0).normalized()).toRotationMatrix();
+  delta1.translation() = Eigen::Vector3d(0.02, -0.015, 0.01);
+  delta2.linear() = Eigen::AngleAxisd(0.006, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
+  delta2.translation() = Eigen::Vector3d(-0.015, 0.01, 0.02);
+  poses[1] = delta1 * poses[1];
+  poses[2] = delta2 * poses[2];
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  run_deterministic(scene, poses, map, mapper);
+
+  std::lock_guard lock(map.mutex);
+  ASSERT_EQ(map.num_keyframes(), 3u);
+  EXPECT_TRUE(map.keyframe_by_id(0)->T_cw.matrix() == scene.true_T_cw[0].matrix()) << "keyframe 0 moved";
+  for (std::size_t k = 1; k < 3; ++k) {
+    const SE3& refined = map.keyframe_by_id(k)->T_cw;
+    const double before_m = center_error_m(poses[k], scene.true_T_cw[k]);
+    const double after_m = center_error_m(refined, scene.true_T_cw[k]);
+    const double before_rad = rotation_error_rad(poses[k], scene.true_T_cw[k]);
+    const double after_rad = rotation_error_rad(refined, scene.true_T_cw[k]);
+    std::printf("keyframe %zu: centre error %.4f -> %.4f m, rotation %.5f -> %.5f rad\n", k, before_m,
+                after_m, before_rad, after_rad);
+    EXPECT_LT(after_m, 0.25 * before_m);
+    EXPECT_LT(after_rad, 0.25 * before_rad);
+  }
+}
+
+TEST(Mapping, CullsARedundantKeyframeButKeepsOneWithPointsOfItsOwn) {
+  // Four keyframes 10 cm apart see the same close points; keyframe 2 alone also sees 60 more.
+  // Once keyframe 3 is mapped, every point of keyframe 1 is seen by 3 others: it is redundant.
+  SceneSpec spec;
+  spec.keyframes = 4;
+  spec.step_m = 0.1;
+  spec.near_points = 100;
+  spec.far_points = 0;
+  spec.clutter = 0;
+  spec.detect_probability = 1.0;
+  spec.private_points = 60;
+  spec.private_keyframe = 2;
+  const SyntheticScene scene(spec);
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  TrackingStandIn tracking(scene, map, mapper);
+  for (std::size_t k = 0; k < 3; ++k) {
+    tracking.insert(k, scene.true_T_cw[k]);
+    mapper.process_all();
+  }
+  {
+    std::lock_guard lock(map.mutex);
+    EXPECT_EQ(map.num_keyframes(), 3u) << "with 3 keyframes no point has 3 other observers";
+  }
+  tracking.insert(3, scene.true_T_cw[3]);
+  mapper.process_all();
+  std::lock_guard lock(map.mutex);
+  EXPECT_FALSE(map.keyframe_by_id(0)->bad);
+  EXPECT_TRUE(map.keyframe_by_id(1)->bad);
+  EXPECT_FALSE(map.keyframe_by_id(2)->bad);
+  EXPECT_FALSE(map.keyframe_by_id(3)->bad);
+  EXPECT_EQ(mapper.keyframes_culled(), 1u);
+  for (const MapPoint* point : map.points()) EXPECT_EQ(point->observations.count(map.keyframe_by_id(1)), 0u);
+}
+
+TEST(Mapping, TwoDeterministicRunsGiveBitIdenticalMaps) {
+  const SyntheticScene scene{SceneSpec{}};
+  Map map_a, map_b;
+  LocalMapper mapper_a(test_settings(), map_a), mapper_b(test_settings(), map_b);
+  run_deterministic(scene, scene.true_T_cw, map_a, mapper_a);
+  run_deterministic(scene, scene.true_T_cw, map_b, mapper_b);
+  const MapSnapshot a(map_a), b(map_b);
+  EXPECT_GT(a.points.size(), 0u);
+  EXPECT_TRUE(a == b);
+}
+
+/// Waits until the mapping thread has processed everything queued (queue first, then idle: the
+/// thread clears idle under the queue lock when it takes a keyframe).
+void wait_until_processed(const LocalMapper& mapper) {
+  while (mapper.queued_keyframes() > 0 || !mapper.accepts_keyframes()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+TEST(Mapping, RealtimeModeFedOneAtATimeGivesTheDeterministicMap) {
+  // True by construction: with nothing else touching the map and each keyframe processed before the
+  // next arrives, the thread runs exactly the deterministic sequence of steps.
+  const SyntheticScene scene{SceneSpec{}};
+  Map deterministic_map;
+  LocalMapper deterministic(test_settings(), deterministic_map);
+  run_deterministic(scene, scene.true_T_cw, deterministic_map, deterministic);
+
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  TrackingStandIn tracking(scene, map, mapper);
+  mapper.start();
+  EXPECT_THROW(mapper.process_all(), std::logic_error);
+  for (std::size_t k = 0; k < scene.true_T_cw.size(); ++k) {
+    tracking.insert(k, scene.true_T_cw[k]);
+    wait_until_processed(mapper);
+  }
+  mapper.stop();
+  EXPECT_EQ(mapper.times().size(), scene.true_T_cw.size());
+  EXPECT_TRUE(MapSnapshot(map) == MapSnapshot(deterministic_map));
+}
+
+TEST(Mapping, StopProcessesEveryQueuedKeyframe) {
+  const SyntheticScene scene{SceneSpec{}};
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  TrackingStandIn tracking(scene, map, mapper);
+  mapper.start();
+  for (std::size_t k = 0; k < scene.true_T_cw.size(); ++k) tracking.insert(k, scene.true_T_cw[k]);
+  mapper.stop();
+  EXPECT_EQ(mapper.queued_keyframes(), 0u);
+  EXPECT_EQ(mapper.times().size(), scene.true_T_cw.size());
+  EXPECT_TRUE(mapper.accepts_keyframes());
+  std::lock_guard lock(map.mutex);
+  EXPECT_GT(map.num_points(), 0u);
+}
+
+}  // namespace
+}  // namespace porta::slam::mapping_test
+#endif  // PORTA_SLAM_BUILT
