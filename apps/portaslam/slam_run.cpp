@@ -110,6 +110,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   const std::size_t progress_every = std::max<std::size_t>(1, total / 20);
   SlamRunSummary summary;
   slam::TrackingState previous = slam::TrackingState::not_initialized;
+  std::string waiting_reason;
   const auto run_start = std::chrono::steady_clock::now();
   // The next pair is read (and for EuRoC rectified) while the current one is processed.
   auto load = [&](std::size_t i) { return dataset->load(i); };
@@ -126,6 +127,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
         std::fprintf(stderr, "frame %zu: tracking LOST: %s\n", i, result.lost_reason.c_str());
       }
     }
+    if (result.state == slam::TrackingState::not_initialized) waiting_reason = result.lost_reason;
     previous = result.state;
     if (!options.quiet && (summary.frames % progress_every == 0 || i + 1 == end)) {
       const double seconds =
@@ -177,10 +179,21 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   std::printf("\nframes %zu, tracked %zu, lost %zu; keyframes %zu, map points %zu\n", summary.frames,
               summary.tracked, summary.lost, summary.keyframes, summary.map_points);
+  if (summary.keyframes == 0 && !waiting_reason.empty()) {
+    std::printf("never initialised; last frame: %s\n", waiting_reason.c_str());
+  }
   std::printf("\nstage (ms)       median       p95      mean    count\n");
   for (const auto& [name, q] : stages) std::printf("%-12s %s\n", name.substr(2).c_str(), format_ms(q).c_str());
   std::printf("(frontend includes stereo matching; frame = frontend + tracking%s; local map and BA are per keyframe)\n",
               options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes" : "");
+
+  if (!trajectory.empty()) {
+    double farthest = 0.0;
+    const Eigen::Vector3d start = trajectory.poses.front().pose.translation();
+    for (const slam::StampedPose& p : trajectory.poses) farthest = std::max(farthest, (p.pose.translation() - start).norm());
+    std::printf("estimated path length %.4f m; farthest from the first pose %.4f m\n", trajectory.path_length_m(),
+                farthest);
+  }
 
   std::string ate_json = "null";
   if (dataset->ground_truth() && trajectory.size() >= slam::kMinimumPairs) {
@@ -189,10 +202,14 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       summary.has_ate = true;
       summary.ate_rmse_m = eval.ate.translation_m.rmse;
       summary.path_length_m = eval.matched_path_length_m;
-      const double percent = summary.path_length_m > 0.0 ? 100.0 * summary.ate_rmse_m / summary.path_length_m : 0.0;
-      std::printf("\nATE (SE(3)-aligned, %zu poses): RMSE %.4f m (%.3f %% of the %.1f m path), median %.4f m, max %.4f m\n",
-                  eval.association.matched(), summary.ate_rmse_m, percent, summary.path_length_m,
-                  eval.ate.translation_m.median, eval.ate.translation_m.max);
+      std::printf("\nATE (SE(3)-aligned, %zu poses): RMSE %.4f m, median %.4f m, max %.4f m",
+                  eval.association.matched(), summary.ate_rmse_m, eval.ate.translation_m.median,
+                  eval.ate.translation_m.max);
+      if (summary.path_length_m >= 1.0) {
+        std::printf(" (RMSE = %.3f %% of the %.1f m path)", 100.0 * summary.ate_rmse_m / summary.path_length_m,
+                    summary.path_length_m);
+      }
+      std::printf("\n");
       char text[256];
       std::snprintf(text, sizeof text,
                     "{\"poses\": %zu, \"rmse_m\": %.6f, \"median_m\": %.6f, \"max_m\": %.6f, \"path_length_m\": %.3f}",

@@ -19,8 +19,10 @@ struct SlamSettings {
 
   /// Stereo points closer than th_depth * baseline are "close" (reliable depth), as ORB-SLAM2's ThDepth.
   double th_depth = 35.0;
-  /// Stereo initialisation needs at least this many stereo points (ORB-SLAM2: 500).
-  int min_init_stereo_points = 500;
+  /// Stereo initialisation needs at least this many stereo points. (ORB-SLAM2 asks for 500
+  /// keypoints; our frontend keeps one corner per cell, so a 752x480 EuRoC frame has ~300 stereo
+  /// points and 100 reliable ones are enough to start a map.)
+  int min_init_stereo_points = 100;
   /// Matches below this disparity give no depth (too far).
   double min_disparity_px = 0.5;
   /// Local map tracking uses the compute backend's projection-match kernel (DESIGN.md §3.10);
