@@ -40,7 +40,10 @@ struct EvalOptions {
 std::string fmt(const char* format, double value) {
   char text[96];
   std::snprintf(text, sizeof text, format, value);
-  return text;
+  std::string s = text;
+  // Rounding noise of an exact result prints as "0.0000", not "-0.0000".
+  if (s.rfind("-0", 0) == 0 && s.find_first_of("123456789") == std::string::npos) s.erase(0, 1);
+  return s;
 }
 
 TrajectoryFormat parse_format(const std::string& option, const std::string& value) {
@@ -107,7 +110,8 @@ EvalOptions parse_eval_options(const std::vector<std::string>& args) {
   }
   if (o.help) return o;
   if (o.files.size() < 2)
-    throw CliError(std::string("expected GT_FILE EST_FILE, got ") + (o.files.empty() ? "no file" : "only '" + o.files[0] + "'") +
+    throw CliError(std::string("expected GT_FILE EST_FILE, got ") +
+                   (o.files.empty() ? "no file" : "only '" + o.files[0] + "'") +
                    " (see `portaslam eval --help`)");
   if (o.files.size() > 2)
     throw CliError("too many files: expected GT_FILE EST_FILE, the third is '" + o.files[2] + "'");
@@ -120,7 +124,8 @@ void require_file(const std::string& what, const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::exists(path, ec)) throw CliError("cannot open " + what + " '" + path + "': no such file");
-  if (fs::is_directory(path, ec)) throw CliError("cannot open " + what + " '" + path + "': it is a directory");
+  if (fs::is_directory(path, ec))
+    throw CliError("cannot open " + what + " '" + path + "': it is a directory");
 }
 
 struct LoadedTrajectory {
@@ -128,16 +133,17 @@ struct LoadedTrajectory {
   TrajectoryFormat format;
 };
 
-LoadedTrajectory load(const std::string& what, const std::string& path, std::optional<TrajectoryFormat> format,
-                      const std::string& times_path, const char* times_option) {
+LoadedTrajectory load(const std::string& what, const std::string& path,
+                      std::optional<TrajectoryFormat> format, const std::string& times_path,
+                      const char* times_option) {
   require_file(what + " file", path);
   if (!times_path.empty()) require_file("times file", times_path);
   try {
     LoadedTrajectory loaded;
     loaded.format = format ? *format : slam::detect_trajectory_format(path);
     if (!times_path.empty() && loaded.format != TrajectoryFormat::kitti)
-      throw CliError(std::string("option ") + times_option + " applies to KITTI pose files only, but '" + path +
-                     "' is read as " + slam::to_string(loaded.format));
+      throw CliError(std::string("option ") + times_option + " applies to KITTI pose files only, but '" +
+                     path + "' is read as " + slam::to_string(loaded.format));
     loaded.trajectory = slam::read_trajectory(path, loaded.format, times_path);
     return loaded;
   } catch (const slam::TrajectoryError& e) {
@@ -146,7 +152,8 @@ LoadedTrajectory load(const std::string& what, const std::string& path, std::opt
 }
 
 std::string describe_input(const std::string& path, const LoadedTrajectory& t, const std::string& times) {
-  std::string s = path + " (" + slam::to_string(t.format) + ", " + std::to_string(t.trajectory.size()) + " poses";
+  std::string s =
+      path + " (" + slam::to_string(t.format) + ", " + std::to_string(t.trajectory.size()) + " poses";
   if (!times.empty()) s += ", times from " + times;
   if (!t.trajectory.has_times) s += ", no times";
   return s + ")";
@@ -163,8 +170,8 @@ void print_summary(const std::string& gt_path, const LoadedTrajectory& gt, const
     out << "association   by index (a trajectory has no times): " << a.matched() << " pairs\n";
   } else {
     out << "association   by time (max difference " << fmt("%g s", options.association.max_time_diff_s)
-        << ", estimate offset " << fmt("%g s", options.association.time_offset_s) << "): " << a.matched() << " of "
-        << a.est_count << " estimate poses matched, " << a.unmatched_estimates() << " unmatched; "
+        << ", estimate offset " << fmt("%g s", options.association.time_offset_s) << "): " << a.matched()
+        << " of " << a.est_count << " estimate poses matched, " << a.unmatched_estimates() << " unmatched; "
         << a.unmatched_ground_truth() << " of " << a.gt_count << " ground-truth poses unused; largest |dt| "
         << fmt("%.4g s", a.max_abs_time_diff_s) << '\n';
   }
@@ -172,8 +179,8 @@ void print_summary(const std::string& gt_path, const LoadedTrajectory& gt, const
   out << "alignment     " << slam::to_string(al.method);
   if (al.method != AlignmentMethod::none)
     out << ": rotation " << fmt("%.3f deg", slam::rotation_angle_rad(al.rotation) * 180.0 / std::numbers::pi)
-        << ", translation [" << fmt("%.4f", al.translation.x()) << ", " << fmt("%.4f", al.translation.y()) << ", "
-        << fmt("%.4f", al.translation.z()) << "] m, scale " << fmt("%.6f", al.scale);
+        << ", translation [" << fmt("%.4f", al.translation.x()) << ", " << fmt("%.4f", al.translation.y())
+        << ", " << fmt("%.4f", al.translation.z()) << "] m, scale " << fmt("%.6f", al.scale);
   out << '\n';
   out << "path length   " << fmt("%.2f m", r.gt_path_length_m) << " ground truth, "
       << fmt("%.2f m", r.matched_path_length_m) << " over the pairs";
@@ -187,8 +194,8 @@ void print_summary(const std::string& gt_path, const LoadedTrajectory& gt, const
   out << "RPE           over " << p.delta << ", " << p.translation_m.count << " pairs: translation RMSE "
       << fmt("%.4f m", p.translation_m.rmse) << ", mean " << fmt("%.4f", p.translation_m.mean) << ", median "
       << fmt("%.4f", p.translation_m.median) << ", max " << fmt("%.4f m", p.translation_m.max)
-      << "; rotation RMSE " << fmt("%.4f deg", p.rotation_deg.rmse) << ", mean " << fmt("%.4f", p.rotation_deg.mean)
-      << ", max " << fmt("%.4f deg", p.rotation_deg.max) << '\n';
+      << "; rotation RMSE " << fmt("%.4f deg", p.rotation_deg.rmse) << ", mean "
+      << fmt("%.4f", p.rotation_deg.mean) << ", max " << fmt("%.4f deg", p.rotation_deg.max) << '\n';
   if (!r.kitti) {
     out << "KITTI         not computed (only for index-associated KITTI-style inputs by default; --kitti)\n";
   } else if (r.kitti->segments == 0) {
@@ -196,8 +203,8 @@ void print_summary(const std::string& gt_path, const LoadedTrajectory& gt, const
   } else {
     const slam::KittiResult& k = *r.kitti;
     out << "KITTI         t_err " << fmt("%.3f %%", k.translation_percent) << ", r_err "
-        << fmt("%.4f deg/100m", k.rotation_deg_per_100m) << fmt(" (%.6f deg/m)", k.rotation_deg_per_m) << " over "
-        << k.segments << " segments\n";
+        << fmt("%.4f deg/100m", k.rotation_deg_per_100m) << fmt(" (%.6f deg/m)", k.rotation_deg_per_m)
+        << " over " << k.segments << " segments\n";
     for (const slam::KittiLengthStats& s : k.per_length)
       out << "              " << fmt("%4.0f m:", s.length_m) << fmt(" t_err %7.3f %%", s.translation_percent)
           << fmt(", r_err %8.4f deg/100m", s.rotation_deg_per_100m) << " (" << s.segments << " segments)\n";
@@ -223,13 +230,14 @@ int run(const EvalOptions& o) {
   } catch (const slam::EvaluationError& e) {
     std::string hint;
     const bool by_index = !gt.trajectory.has_times || !est.trajectory.has_times;
-    if (by_index && gt.trajectory.size() != est.trajectory.size()) hint = " with --gt-times FILE / --est-times FILE";
+    if (by_index && gt.trajectory.size() != est.trajectory.size())
+      hint = " with --gt-times FILE / --est-times FILE";
     throw CliError(std::string(e.what()) + hint);
   }
   print_summary(gt_path, gt, o.gt_times, est_path, est, o.est_times, options, result);
 
-  const slam::EvaluationInputs inputs{gt_path, est_path, slam::to_string(gt.format), slam::to_string(est.format),
-                                      o.gt_times, o.est_times};
+  const slam::EvaluationInputs inputs{
+      gt_path, est_path, slam::to_string(gt.format), slam::to_string(est.format), o.gt_times, o.est_times};
   try {
     if (!o.json_path.empty()) {
       slam::write_evaluation_json(o.json_path, inputs, options, result);

@@ -55,7 +55,7 @@ Alignment align_points(const std::vector<Eigen::Vector3d>& ground_truth,
   mean_est /= n;
 
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (1/n) sum (gt - mean)(est - mean)^T
-  double est_variance = 0.0;                              // (1/n) sum |est - mean|^2
+  double est_variance = 0.0;                             // (1/n) sum |est - mean|^2
   for (std::size_t k = 0; k < estimate.size(); ++k) {
     const Eigen::Vector3d g = ground_truth[k] - mean_gt;
     const Eigen::Vector3d e = estimate[k] - mean_est;
@@ -74,7 +74,8 @@ Alignment align_points(const std::vector<Eigen::Vector3d>& ground_truth,
 
   if (method == AlignmentMethod::sim3) {
     if (!(est_variance > 0.0))
-      throw EvaluationError("Sim(3) alignment: the estimate's positions all coincide, so no scale can be found");
+      throw EvaluationError(
+          "Sim(3) alignment: the estimate's positions all coincide, so no scale can be found");
     a.scale = svd.singularValues().dot(sign) / est_variance;
   }
   a.translation = mean_gt - a.scale * (a.rotation * mean_est);

@@ -20,9 +20,8 @@ std::string format_seconds(double s) {
 
 std::string time_range(const Trajectory& t, double offset_s) {
   if (t.empty()) return "no poses";
-  const auto [lo, hi] = std::minmax_element(t.poses.begin(), t.poses.end(), [](const auto& a, const auto& b) {
-    return a.time_s < b.time_s;
-  });
+  const auto [lo, hi] = std::minmax_element(t.poses.begin(), t.poses.end(),
+                                            [](const auto& a, const auto& b) { return a.time_s < b.time_s; });
   char text[96];  // snprintf, not "[" + std::string: GCC 12 at -O3 warns falsely (-Wrestrict) on that
   std::snprintf(text, sizeof text, "[%.6f, %.6f] s", lo->time_s + offset_s, hi->time_s + offset_s);
   return text;
@@ -31,11 +30,12 @@ std::string time_range(const Trajectory& t, double offset_s) {
 Association by_index(const Trajectory& gt, const Trajectory& est) {
   if (gt.size() != est.size()) {
     const char* which = !gt.has_times && !est.has_times ? "neither trajectory has"
-                        : !gt.has_times                  ? "the ground truth has no"
-                                                         : "the estimate has no";
+                        : !gt.has_times                 ? "the ground truth has no"
+                                                        : "the estimate has no";
     throw EvaluationError(std::string("cannot associate by index: ") + which +
                           " timestamps, so poses are paired by index, but the ground truth has " +
-                          std::to_string(gt.size()) + " poses and the estimate " + std::to_string(est.size()) +
+                          std::to_string(gt.size()) + " poses and the estimate " +
+                          std::to_string(est.size()) +
                           "; give times for the trajectory without them (a KITTI times.txt)");
   }
   Association a;
@@ -71,8 +71,8 @@ Association by_time(const Trajectory& gt, const Trajectory& est, const Associati
   std::vector<Candidate> candidates;
   for (std::size_t e = 0; e < est.size(); ++e) {
     const double t = est.poses[e].time_s + options.time_offset_s;
-    const auto split = static_cast<std::size_t>(std::lower_bound(gt_times.begin(), gt_times.end(), t) -
-                                                gt_times.begin());
+    const auto split =
+        static_cast<std::size_t>(std::lower_bound(gt_times.begin(), gt_times.end(), t) - gt_times.begin());
     for (std::size_t k = split, n = 0; k < gt_times.size() && n < kCandidatesPerSide; ++k, ++n) {
       const double dt = std::abs(gt_times[k] - t);
       if (dt > options.max_time_diff_s) break;
@@ -119,12 +119,14 @@ Association associate(const Trajectory& ground_truth, const Trajectory& estimate
   Association a = index_mode ? by_index(ground_truth, estimate) : by_time(ground_truth, estimate, options);
   if (a.matched() < kMinimumPairs) {
     std::string message = "only " + std::to_string(a.matched()) + " of the estimate's " +
-                          std::to_string(estimate.size()) + " poses could be paired with ground truth (at least " +
+                          std::to_string(estimate.size()) +
+                          " poses could be paired with ground truth (at least " +
                           std::to_string(kMinimumPairs) + " are needed)";
     if (!index_mode)
       message += ": ground-truth times " + time_range(ground_truth, 0.0) + ", estimate times" +
-                 (options.time_offset_s != 0.0 ? " + offset " : " ") + time_range(estimate, options.time_offset_s) +
-                 ", max time difference " + format_seconds(options.max_time_diff_s) +
+                 (options.time_offset_s != 0.0 ? " + offset " : " ") +
+                 time_range(estimate, options.time_offset_s) + ", max time difference " +
+                 format_seconds(options.max_time_diff_s) +
                  " s; are both in the same clock and unit (a time offset, or a larger tolerance)?";
     throw EvaluationError(message);
   }

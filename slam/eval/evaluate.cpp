@@ -23,7 +23,8 @@ EvaluationResult evaluate(const Trajectory& ground_truth, const Trajectory& esti
   r.alignment = align_points(gt_points, est_points, options.alignment);
   r.ate = compute_ate(gt, est, r.alignment);
   r.rpe = compute_rpe(gt, est, options.rpe, r.alignment.scale);
-  const bool kitti = options.kitti == KittiMetric::on || (options.kitti == KittiMetric::automatic && a.by_index);
+  const bool kitti =
+      options.kitti == KittiMetric::on || (options.kitti == KittiMetric::automatic && a.by_index);
   if (kitti) r.kitti = compute_kitti(gt, est, r.alignment.scale);
 
   r.gt_path_length_m = ground_truth.path_length_m();

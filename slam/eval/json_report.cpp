@@ -203,7 +203,9 @@ std::string evaluation_json(const EvaluationInputs& inputs, const EvaluationOpti
   if (!result.kitti) {
     j.begin_object("kitti");
     j.field("computed", false);
-    j.field("note", "not requested (on by default only for KITTI-style inputs: both KITTI files, or association by index; --kitti turns it on)");
+    j.field("note",
+            "not requested (on by default only for KITTI-style inputs: both KITTI files, or association by "
+            "index; --kitti turns it on)");
     j.end_object();
   } else {
     const KittiResult& k = *result.kitti;

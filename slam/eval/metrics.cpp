@@ -26,8 +26,8 @@ void check_paired(const std::vector<SE3>& gt, const std::vector<SE3>& est) {
 
 // The first index j >= from with distances[j] >= target (distances non-decreasing), or npos.
 std::size_t first_reaching(const std::vector<double>& distances, std::size_t from, double target) {
-  const auto it =
-      std::lower_bound(distances.begin() + static_cast<std::ptrdiff_t>(from), distances.end(), target - kLengthTolerance_m);
+  const auto it = std::lower_bound(distances.begin() + static_cast<std::ptrdiff_t>(from), distances.end(),
+                                   target - kLengthTolerance_m);
   return it == distances.end() ? std::string::npos : static_cast<std::size_t>(it - distances.begin());
 }
 
@@ -84,8 +84,8 @@ AteResult compute_ate(const std::vector<SE3>& gt, const std::vector<SE3>& est, c
   for (std::size_t k = 0; k < gt.size(); ++k) {
     const SE3 aligned = alignment.apply(est[k]);
     r.translation_errors_m.push_back((gt[k].translation() - aligned.translation()).norm());
-    r.rotation_errors_deg.push_back(
-        rotation_angle_rad(gt[k].linear().transpose() * aligned.linear()) * kDegPerRad);
+    r.rotation_errors_deg.push_back(rotation_angle_rad(gt[k].linear().transpose() * aligned.linear()) *
+                                    kDegPerRad);
   }
   r.translation_m = error_stats(r.translation_errors_m);
   r.rotation_deg = error_stats(r.rotation_errors_deg);

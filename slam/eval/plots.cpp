@@ -24,10 +24,10 @@ constexpr int kLeft = 110;  // room for the y tick labels and the y label
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 const cv::Scalar kBlack(0, 0, 0);
 const cv::Scalar kGrid(225, 225, 225);
-const cv::Scalar kGroundTruthColour(60, 60, 60);   // dark grey (BGR)
-const cv::Scalar kEstimateColour(200, 90, 0);      // blue
-const cv::Scalar kErrorColour(40, 40, 210);        // red
-const cv::Scalar kRmseColour(0, 140, 0);           // green
+const cv::Scalar kGroundTruthColour(60, 60, 60);  // dark grey (BGR)
+const cv::Scalar kEstimateColour(200, 90, 0);     // blue
+const cv::Scalar kErrorColour(40, 40, 210);       // red
+const cv::Scalar kRmseColour(0, 140, 0);          // green
 const cv::Scalar kStartColour(0, 170, 0);
 
 std::string format_number(double value, int decimals) {
@@ -81,7 +81,8 @@ struct Axes {
   double x0 = 0, x1 = 1, y0 = 0, y1 = 1;
 
   cv::Point2d to_pixel(double x, double y) const {
-    return {area.x + (x - x0) / (x1 - x0) * area.width, area.y + area.height - (y - y0) / (y1 - y0) * area.height};
+    return {area.x + (x - x0) / (x1 - x0) * area.width,
+            area.y + area.height - (y - y0) / (y1 - y0) * area.height};
   }
 };
 
@@ -96,10 +97,12 @@ void draw_axes(cv::Mat& canvas, const Axes& axes, const std::string& x_label, co
   for (const double x : xt.values) {
     const int px = cvRound(axes.to_pixel(x, axes.y0).x);
     cv::line(canvas, {px, axes.area.y}, {px, axes.area.y + axes.area.height}, kGrid, 1);
-    cv::line(canvas, {px, axes.area.y + axes.area.height}, {px, axes.area.y + axes.area.height + 5}, kBlack, 1);
+    cv::line(canvas, {px, axes.area.y + axes.area.height}, {px, axes.area.y + axes.area.height + 5}, kBlack,
+             1);
     const std::string label = format_number(x, xt.decimals);
     const cv::Size size = text_size(label, scale);
-    put_text(canvas, label, {px - size.width / 2, axes.area.y + axes.area.height + 10 + size.height}, scale, kBlack);
+    put_text(canvas, label, {px - size.width / 2, axes.area.y + axes.area.height + 10 + size.height}, scale,
+             kBlack);
   }
   int widest_y_label = 0;
   for (const double y : yt.values) {
@@ -115,8 +118,9 @@ void draw_axes(cv::Mat& canvas, const Axes& axes, const std::string& x_label, co
 
   const double label_scale = 0.6;
   const cv::Size xs = text_size(x_label, label_scale);
-  put_text(canvas, x_label, {axes.area.x + (axes.area.width - xs.width) / 2, axes.area.y + axes.area.height + 50},
-           label_scale, kBlack);
+  put_text(canvas, x_label,
+           {axes.area.x + (axes.area.width - xs.width) / 2, axes.area.y + axes.area.height + 50}, label_scale,
+           kBlack);
   // The y label, turned to read upwards: drawn into a strip, then rotated.
   const cv::Size ys = text_size(y_label, label_scale);
   cv::Mat strip(ys.height + 8, ys.width + 4, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -124,13 +128,14 @@ void draw_axes(cv::Mat& canvas, const Axes& axes, const std::string& x_label, co
   cv::Mat turned;
   cv::rotate(strip, turned, cv::ROTATE_90_COUNTERCLOCKWISE);
   const int left = std::max(0, axes.area.x - 9 - widest_y_label - 10 - turned.cols);
-  const int top = std::clamp(axes.area.y + (axes.area.height - turned.rows) / 2, 0, canvas.rows - turned.rows);
+  const int top =
+      std::clamp(axes.area.y + (axes.area.height - turned.rows) / 2, 0, canvas.rows - turned.rows);
   if (left + turned.cols <= canvas.cols && turned.rows <= canvas.rows)
     turned.copyTo(canvas(cv::Rect(left, top, turned.cols, turned.rows)));
 }
 
-void draw_polyline(cv::Mat& canvas, const Axes& axes, const std::vector<cv::Point2d>& points, const cv::Scalar& colour,
-                   int thickness) {
+void draw_polyline(cv::Mat& canvas, const Axes& axes, const std::vector<cv::Point2d>& points,
+                   const cv::Scalar& colour, int thickness) {
   if (points.empty()) return;
   std::vector<cv::Point> pixels;
   pixels.reserve(points.size());
@@ -166,8 +171,8 @@ void draw_legend(cv::Mat& canvas, const Axes& axes, const std::vector<LegendEntr
   const int top = axes.area.y + 10, bottom = axes.area.y + axes.area.height - size.height - 10;
   cv::Rect box;
   std::size_t fewest = std::numeric_limits<std::size_t>::max();
-  for (const cv::Point corner : {cv::Point(right, top), cv::Point(left, top), cv::Point(right, bottom),
-                                 cv::Point(left, bottom)}) {
+  for (const cv::Point corner :
+       {cv::Point(right, top), cv::Point(left, top), cv::Point(right, bottom), cv::Point(left, bottom)}) {
     const cv::Rect candidate(corner, size);
     const cv::Rect margin(candidate.x - 8, candidate.y - 8, candidate.width + 16, candidate.height + 16);
     std::size_t hidden = 0;
@@ -309,10 +314,11 @@ Axes error_axes(cv::Rect area, double x0, double x1, const std::vector<double>& 
 
 // `smallest_top`: the y axis reaches at least this high, so that near-zero errors (an estimate
 // that equals the ground truth) show as a flat line at 0, not as noise blown up to fill the chart.
-void error_chart(cv::Mat& canvas, cv::Rect area, const std::vector<double>& x, const std::vector<double>& errors,
-                 double rmse, const std::string& x_label, const std::string& y_label, const char* unit_format,
-                 double smallest_top) {
-  const Axes axes = error_axes(area, x.empty() ? 0.0 : x.front(), x.empty() ? 1.0 : x.back(), errors, smallest_top);
+void error_chart(cv::Mat& canvas, cv::Rect area, const std::vector<double>& x,
+                 const std::vector<double>& errors, double rmse, const std::string& x_label,
+                 const std::string& y_label, const char* unit_format, double smallest_top) {
+  const Axes axes =
+      error_axes(area, x.empty() ? 0.0 : x.front(), x.empty() ? 1.0 : x.back(), errors, smallest_top);
   draw_axes(canvas, axes, x_label, y_label);
   std::vector<cv::Point2d> points;
   for (std::size_t k = 0; k < errors.size(); ++k) points.emplace_back(x[k], errors[k]);
@@ -338,13 +344,13 @@ XAxis along_axis(const EvaluationResult& r) {
 std::string ate_plot(const std::string& path, const EvaluationResult& r, const std::string& title) {
   cv::Mat canvas(kHeight, kWidth, CV_8UC3, cv::Scalar(255, 255, 255));
   const XAxis along = along_axis(r);
-  error_chart(canvas, cv::Rect(kLeft, 80, kWidth - kLeft - 40, kHeight - 170), along.values, r.ate.translation_errors_m,
-              r.ate.translation_m.rmse, along.label, "ATE (m)", "%.4g m", 1e-3);
+  error_chart(canvas, cv::Rect(kLeft, 80, kWidth - kLeft - 40, kHeight - 170), along.values,
+              r.ate.translation_errors_m, r.ate.translation_m.rmse, along.label, "ATE (m)", "%.4g m", 1e-3);
   const ErrorStats& s = r.ate.translation_m;
   draw_title(canvas, title,
-             "absolute trajectory error after " + std::string(to_string(r.alignment.method)) + " alignment: RMSE " +
-                 fmt("%.4g", s.rmse) + fmt(", mean %.4g", s.mean) + fmt(", median %.4g", s.median) +
-                 fmt(", max %.4g m", s.max));
+             "absolute trajectory error after " + std::string(to_string(r.alignment.method)) +
+                 " alignment: RMSE " + fmt("%.4g", s.rmse) + fmt(", mean %.4g", s.mean) +
+                 fmt(", median %.4g", s.median) + fmt(", max %.4g m", s.max));
   save_png(path, canvas);
   return path;
 }
@@ -355,14 +361,16 @@ std::string rpe_plot(const std::string& path, const EvaluationResult& r, const s
   std::vector<double> x;
   for (const std::size_t i : r.rpe.first) x.push_back(along.values[i]);
   const int panel = (kHeight - 80 - 2 * 85) / 2;
-  error_chart(canvas, cv::Rect(kLeft, 80, kWidth - kLeft - 40, panel), x, r.rpe.translation_errors_m, r.rpe.translation_m.rmse,
-              along.label, "RPE translation (m)", "%.4g m", 1e-3);
-  error_chart(canvas, cv::Rect(kLeft, 80 + panel + 85, kWidth - kLeft - 40, panel), x, r.rpe.rotation_errors_deg,
-              r.rpe.rotation_deg.rmse, along.label, "RPE rotation (deg)", "%.4g deg", 1e-3);
+  error_chart(canvas, cv::Rect(kLeft, 80, kWidth - kLeft - 40, panel), x, r.rpe.translation_errors_m,
+              r.rpe.translation_m.rmse, along.label, "RPE translation (m)", "%.4g m", 1e-3);
+  error_chart(canvas, cv::Rect(kLeft, 80 + panel + 85, kWidth - kLeft - 40, panel), x,
+              r.rpe.rotation_errors_deg, r.rpe.rotation_deg.rmse, along.label, "RPE rotation (deg)",
+              "%.4g deg", 1e-3);
   draw_title(canvas, title,
-             "relative pose error over " + r.rpe.delta + ": translation RMSE " + fmt("%.4g m", r.rpe.translation_m.rmse) +
-                 ", rotation RMSE " + fmt("%.4g deg", r.rpe.rotation_deg.rmse) + " (" +
-                 std::to_string(r.rpe.translation_m.count) + " pairs)");
+             "relative pose error over " + r.rpe.delta + ": translation RMSE " +
+                 fmt("%.4g m", r.rpe.translation_m.rmse) + ", rotation RMSE " +
+                 fmt("%.4g deg", r.rpe.rotation_deg.rmse) + " (" + std::to_string(r.rpe.translation_m.count) +
+                 " pairs)");
   save_png(path, canvas);
   return path;
 }

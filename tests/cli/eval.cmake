@@ -121,7 +121,7 @@ porta_eval_cli_test(json_folder_missing EXIT 1 STDERR "cannot write the JSON rep
 set(porta_gt_dir ${PORTA_DATA_DIR}/gt-trajectories)
 if(EXISTS ${porta_gt_dir}/kitti00_poses.txt AND EXISTS ${porta_gt_dir}/kitti00_times.txt)
   porta_eval_cli_test(kitti00_self EXIT 0
-                      STDOUT "4541 pairs.*path length +3724\\.[0-9]+ m.*ATE +RMSE 0\\.0000 m.*KITTI +t_err 0\\.000 %, r_err 0\\.0000 deg/100m over [0-9]+ segments.* 800 m: t_err"
+                      STDOUT "4541 pairs.*path length +3724\\.[0-9]+ m.*ATE +RMSE 0\\.0000 m.*KITTI +t_err 0\\.000 %, r_err 0\\.0000 deg/100m \\(0\\.000000 deg/m\\) over 3283 segments.* 800 m: t_err"
                       ARGS ${porta_gt_dir}/kitti00_poses.txt ${porta_gt_dir}/kitti00_poses.txt)
   porta_eval_cli_test(kitti00_times EXIT 0 STDOUT "times from .*by time.*4541 of 4541 estimate poses matched"
                       ARGS ${porta_gt_dir}/kitti00_poses.txt ${porta_gt_dir}/kitti00_poses.txt

@@ -56,7 +56,8 @@ TEST(EvalAssociation, JitteredTimesGoToTheNearestGroundTruth) {
 TEST(EvalAssociation, ClockOffsetIsAppliedToTheEstimate) {
   const Trajectory gt = timed(regular_times(200, 0.05, 1000.0));
   const Trajectory est = timed(regular_times(100, 0.1, 7.0));  // another clock, 993 s behind
-  EXPECT_NE(error_of(gt, est).find("only 0 of the estimate's 100 poses"), std::string::npos) << error_of(gt, est);
+  EXPECT_NE(error_of(gt, est).find("only 0 of the estimate's 100 poses"), std::string::npos)
+      << error_of(gt, est);
   AssociationOptions o;
   o.time_offset_s = 993.0;
   const Association a = associate(gt, est, o);

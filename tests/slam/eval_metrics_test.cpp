@@ -32,7 +32,8 @@ Trajectory loop_trajectory(std::size_t n = 200) {
   for (std::size_t k = 0; k < n; ++k) {
     const double a = 2.0 * kPi * static_cast<double>(k) / static_cast<double>(n);
     const Eigen::Vector3d p(20.0 * std::cos(a), 1.5 * std::sin(3.0 * a), 12.0 * std::sin(a));
-    const Eigen::Matrix3d r = rot(a, Eigen::Vector3d::UnitY()) * rot(0.1 * std::sin(5.0 * a), Eigen::Vector3d::UnitX());
+    const Eigen::Matrix3d r =
+        rot(a, Eigen::Vector3d::UnitY()) * rot(0.1 * std::sin(5.0 * a), Eigen::Vector3d::UnitX());
     t.poses.push_back({0.1 * static_cast<double>(k), make_pose(r, p)});
   }
   return t;
@@ -42,8 +43,9 @@ Trajectory loop_trajectory(std::size_t n = 200) {
 Trajectory straight_trajectory(std::size_t n, double step_m) {
   Trajectory t;
   for (std::size_t k = 0; k < n; ++k)
-    t.poses.push_back({0.1 * static_cast<double>(k),
-                       make_pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, step_m * static_cast<double>(k)))});
+    t.poses.push_back(
+        {0.1 * static_cast<double>(k),
+         make_pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, step_m * static_cast<double>(k)))});
   return t;
 }
 
@@ -114,7 +116,8 @@ TEST(EvalAlignment, MirroredPointsStillGiveAProperRotation) {
   std::vector<Eigen::Vector3d> gt, est;
   for (const StampedPose& p : loop_trajectory(60).poses) {
     gt.push_back(p.pose.translation());
-    est.push_back(Eigen::Vector3d(-p.pose.translation().x(), p.pose.translation().y(), p.pose.translation().z()));
+    est.push_back(
+        Eigen::Vector3d(-p.pose.translation().x(), p.pose.translation().y(), p.pose.translation().z()));
   }
   EXPECT_NEAR(align_points(gt, est, AlignmentMethod::se3).rotation.determinant(), 1.0, 1e-12);
 }
@@ -199,7 +202,8 @@ TEST(EvalAte, ZeroMeanUncorrelatedOffsetsGiveTheirRmse) {
 TEST(EvalAte, TwoOffsetSizesGiveTheExpectedStatistics) {
   const Trajectory gt = loop_trajectory(200);
   Trajectory est = gt;
-  for (std::size_t k = 0; k < est.size(); ++k) est.poses[k].pose.translation().y() += (k % 2 == 0 ? 0.1 : 0.3);
+  for (std::size_t k = 0; k < est.size(); ++k)
+    est.poses[k].pose.translation().y() += (k % 2 == 0 ? 0.1 : 0.3);
   const EvaluationResult r = evaluate(gt, est, with_alignment(AlignmentMethod::none));
   EXPECT_NEAR(r.ate.translation_m.rmse, std::sqrt((0.01 + 0.09) / 2.0), 1e-12);
   EXPECT_NEAR(r.ate.translation_m.mean, 0.2, 1e-12);
@@ -279,8 +283,8 @@ TEST(EvalKitti, ScaledStepsGiveOnePercentTranslationError) {
 TEST(EvalKitti, ConstantYawRateDriftGivesItsDegreesPerMetre) {
   const Trajectory gt = straight_trajectory(901, 1.0);
   const double yaw_per_step = 0.0005;  // rad per 1 m step, about the camera's y (down) axis
-  const Trajectory est = with_per_step_drift(gt, make_pose(rot(yaw_per_step, Eigen::Vector3d::UnitY()),
-                                                          Eigen::Vector3d::Zero()));
+  const Trajectory est = with_per_step_drift(
+      gt, make_pose(rot(yaw_per_step, Eigen::Vector3d::UnitY()), Eigen::Vector3d::Zero()));
   std::vector<SE3> g, e;
   for (std::size_t k = 0; k < gt.size(); ++k) {
     g.push_back(gt.poses[k].pose);
@@ -289,7 +293,8 @@ TEST(EvalKitti, ConstantYawRateDriftGivesItsDegreesPerMetre) {
   const KittiResult k = compute_kitti(g, e);
   EXPECT_NEAR(k.rotation_deg_per_m, yaw_per_step * kDeg, 1e-9);
   EXPECT_NEAR(k.rotation_deg_per_100m, 100.0 * yaw_per_step * kDeg, 1e-7);
-  for (const KittiLengthStats& s : k.per_length) EXPECT_NEAR(s.rotation_deg_per_100m, 100.0 * yaw_per_step * kDeg, 1e-7);
+  for (const KittiLengthStats& s : k.per_length)
+    EXPECT_NEAR(s.rotation_deg_per_100m, 100.0 * yaw_per_step * kDeg, 1e-7);
   EXPECT_GT(k.translation_percent, 0.0);  // the estimate curves away
 }
 
@@ -301,7 +306,8 @@ TEST(EvalKitti, ShortPathHasNoSegmentsAndSaysSo) {
   ASSERT_TRUE(r.kitti.has_value());
   EXPECT_EQ(r.kitti->segments, 0u);
   EXPECT_TRUE(r.kitti->per_length.empty());
-  EXPECT_NE(r.kitti->note.find("shorter than the shortest segment (100 m)"), std::string::npos) << r.kitti->note;
+  EXPECT_NE(r.kitti->note.find("shorter than the shortest segment (100 m)"), std::string::npos)
+      << r.kitti->note;
 }
 
 TEST(EvalKitti, OffByDefaultForTimedInputsAndOnRequest) {

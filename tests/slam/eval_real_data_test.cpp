@@ -26,8 +26,8 @@ constexpr const char* kKitti00Times = "gt-trajectories/kitti00_times.txt";
 constexpr const char* kKitti07 = "gt-trajectories/kitti07_times_poses.txt";
 constexpr const char* kEuroc = "gt-trajectories/euroc_v102_groundtruth.csv";
 
-#define PORTA_REQUIRE_DATA(path_variable, relative)                                   \
-  const fs::path path_variable = porta::test::data_file(relative);                   \
+#define PORTA_REQUIRE_DATA(path_variable, relative)                \
+  const fs::path path_variable = porta::test::data_file(relative); \
   if (path_variable.empty()) GTEST_SKIP() << porta::test::skip_reason(relative)
 
 // Every position scaled by `factor` about the origin: every relative translation is scaled by it.
@@ -130,7 +130,7 @@ TEST(EvalRealData, EurocSubsampledJitteredCopyIsAssociatedAndMeasured) {
   ASSERT_GT(gt.size(), 16000u);
   Trajectory est;
   for (std::size_t k = 0; k < gt.size(); k += 10) {  // 200 Hz -> 20 Hz
-    if (k >= 4000 && k < 5000) continue;               // 5 s of lost tracking
+    if (k >= 4000 && k < 5000) continue;             // 5 s of lost tracking
     StampedPose p = gt.poses[k];
     const std::size_t m = est.size();
     p.time_s += 1000.0 + (m % 2 == 0 ? 0.002 : -0.002);
@@ -161,22 +161,24 @@ TEST(EvalRealData, ReportAndPlotsAreWritten) {
   PORTA_REQUIRE_DATA(times, kKitti00Times);
   const Trajectory gt = read_trajectory(poses.string(), TrajectoryFormat::kitti, times.string());
   Trajectory est = scaled(gt, 1.01);
-  for (std::size_t k = 0; k < est.size(); ++k) est.poses[k].pose.translation().x() += 0.3 * std::sin(0.01 * static_cast<double>(k));
+  for (std::size_t k = 0; k < est.size(); ++k)
+    est.poses[k].pose.translation().x() += 0.3 * std::sin(0.01 * static_cast<double>(k));
   EvaluationOptions o;
   o.kitti = KittiMetric::on;
   const EvaluationResult r = evaluate(gt, est, o);
 
   const fs::path dir = scratch_dir("report");
-  const EvaluationInputs inputs{poses.string(), "estimate \"copy\".txt", "kitti", "kitti", times.string(), ""};
+  const EvaluationInputs inputs{poses.string(), "estimate \"copy\".txt", "kitti",
+                                "kitti",        times.string(),          ""};
   write_evaluation_json((dir / "eval.json").string(), inputs, o, r);
   std::ifstream in(dir / "eval.json");
   std::stringstream text;
   text << in.rdbuf();
   const std::string json = text.str();
-  for (const char* key : {"\"inputs\"", "\"association\"", "\"matched\": 4541", "\"alignment\"", "\"rotation\"",
-                          "\"scale\": 1", "\"ate\"", "\"rmse\"", "\"per_pose\"", "\"rpe\"", "\"kitti\"",
-                          "\"per_length\"", "\"length_m\": 800", "\"path_length_m\"", "estimate \\\"copy\\\".txt",
-                          "\"times_path\": null"})
+  for (const char* key :
+       {"\"inputs\"", "\"association\"", "\"matched\": 4541", "\"alignment\"", "\"rotation\"", "\"scale\": 1",
+        "\"ate\"", "\"rmse\"", "\"per_pose\"", "\"rpe\"", "\"kitti\"", "\"per_length\"", "\"length_m\": 800",
+        "\"path_length_m\"", "estimate \\\"copy\\\".txt", "\"times_path\": null"})
     EXPECT_NE(json.find(key), std::string::npos) << key;
   EXPECT_EQ(json.find("nan"), std::string::npos);
   EXPECT_EQ(json.back(), '\n');
@@ -188,7 +190,8 @@ TEST(EvalRealData, ReportAndPlotsAreWritten) {
     EXPECT_GT(fs::file_size(plot), 10000u) << plot;
   }
   EXPECT_THROW(write_evaluation_plots((dir / "eval.json").string(), r, "x"), EvaluationError);
-  EXPECT_THROW(write_evaluation_json((dir / "no_such_dir" / "x.json").string(), inputs, o, r), EvaluationError);
+  EXPECT_THROW(write_evaluation_json((dir / "no_such_dir" / "x.json").string(), inputs, o, r),
+               EvaluationError);
 }
 
 }  // namespace

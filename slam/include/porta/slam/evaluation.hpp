@@ -43,8 +43,8 @@ struct Association {
   bool by_index = false;  ///< true: paired by position in the files (a trajectory had no times)
   std::vector<std::size_t> gt_index;
   std::vector<std::size_t> est_index;
-  std::size_t gt_count = 0;   ///< poses in the ground truth
-  std::size_t est_count = 0;  ///< poses in the estimate
+  std::size_t gt_count = 0;          ///< poses in the ground truth
+  std::size_t est_count = 0;         ///< poses in the estimate
   double max_abs_time_diff_s = 0.0;  ///< over the pairs (0 when by index)
 
   std::size_t matched() const { return est_index.size(); }
@@ -108,12 +108,12 @@ struct AteResult {
 /// RPE pairs are i < j along the associated sequence, j = i + frames, or (distance mode) the first j
 /// whose ground-truth path length from i reaches distance_m.
 struct RpeOptions {
-  std::size_t delta_frames = 1;  ///< used when delta_distance_m is 0; >= 1
+  std::size_t delta_frames = 1;   ///< used when delta_distance_m is 0; >= 1
   double delta_distance_m = 0.0;  ///< > 0 selects the distance mode
 };
 
 struct RpeResult {
-  std::string delta;  ///< "1 frame", "10 frames", "5 m"
+  std::string delta;               ///< "1 frame", "10 frames", "5 m"
   std::vector<std::size_t> first;  ///< pair index (into the association) of each RPE pair's start
   std::vector<std::size_t> second;
   std::vector<double> translation_errors_m;
@@ -126,8 +126,8 @@ struct RpeResult {
 struct KittiLengthStats {
   double length_m = 0.0;
   std::size_t segments = 0;
-  double translation_percent = 0.0;     ///< mean of |t_err| / length, in %
-  double rotation_deg_per_100m = 0.0;   ///< mean of angle / length, in deg per 100 m
+  double translation_percent = 0.0;    ///< mean of |t_err| / length, in %
+  double rotation_deg_per_100m = 0.0;  ///< mean of angle / length, in deg per 100 m
 };
 
 struct KittiResult {
@@ -180,7 +180,7 @@ struct EvaluationResult {
   Alignment alignment;
   AteResult ate;
   RpeResult rpe;
-  std::optional<KittiResult> kitti;  ///< nullopt when not requested
+  std::optional<KittiResult> kitti;    ///< nullopt when not requested
   double gt_path_length_m = 0.0;       ///< whole ground truth
   double matched_path_length_m = 0.0;  ///< ground truth over the paired poses
   double matched_duration_s = 0.0;     ///< ground-truth time span of the pairs (0 without times)
