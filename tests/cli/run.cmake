@@ -39,3 +39,9 @@ add_test(NAME cli.run_deterministic_twice_same_bytes
          COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/determinism
                  -P ${CMAKE_CURRENT_LIST_DIR}/slam_determinism.cmake)
 set_tests_properties(cli.run_deterministic_twice_same_bytes PROPERTIES LABELS cli TIMEOUT 600)
+
+# Rendered EuRoC layout read back by the EuRoC reader (ground truth from the rendered CSV) and tracked.
+add_test(NAME cli.run_rendered_room_euroc_layout
+         COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/room-euroc
+                 -P ${CMAKE_CURRENT_LIST_DIR}/slam_rendered_room.cmake)
+set_tests_properties(cli.run_rendered_room_euroc_layout PROPERTIES LABELS cli TIMEOUT 300)
