@@ -20,38 +20,18 @@
 #include <vector>
 
 #include "porta/slam/dataset.hpp"
+#include "dataset_test_files.hpp"
 #include "support/data_path.hpp"
 
 namespace porta::slam {
 namespace {
 
 namespace fs = std::filesystem;
+using test_files::random_image;
+using test_files::TempDir;
+using test_files::write_text;
 
 const fs::path kSettingsDir = fs::path(__FILE__).parent_path().parent_path().parent_path() / "settings";
-
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() / ("porta_euroc_" + std::to_string(::getpid()) + "_" +
-                                         info->test_suite_name() + "_" + info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
 
 std::string replace_all(std::string text, const std::string& from, const std::string& to) {
   for (auto at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
@@ -62,14 +42,6 @@ std::string replace_all(std::string text, const std::string& from, const std::st
 std::string read_text(const fs::path& path) {
   std::ifstream in(path);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-cv::Mat random_image(int width, int height, unsigned seed) {
-  cv::Mat m(height, width, CV_8UC1);
-  std::mt19937 rng(seed);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(rng() & 0xff);
-  return m;
 }
 
 std::string list(const std::vector<double>& values) {

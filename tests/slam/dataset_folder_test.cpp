@@ -15,43 +15,15 @@
 #include <string>
 
 #include "porta/slam/dataset.hpp"
+#include "dataset_test_files.hpp"
 
 namespace porta::slam {
 namespace {
 
 namespace fs = std::filesystem;
-
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() / ("porta_folder_" + std::to_string(::getpid()) + "_" +
-                                         info->test_suite_name() + "_" + info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-void write_text(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
-
-cv::Mat random_image(int width, int height, unsigned seed) {
-  cv::Mat m(height, width, CV_8UC1);
-  std::mt19937 rng(seed);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(rng() & 0xff);
-  return m;
-}
+using test_files::random_image;
+using test_files::TempDir;
+using test_files::write_text;
 
 const char* const kSettings =
     "%YAML:1.0\nCamera.fx: 300.0\nCamera.fy: 300.0\nCamera.cx: 35.5\nCamera.cy: 23.5\nCamera.bf: 36.0\n"
