@@ -9,6 +9,7 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <thread>
 #include <vector>
 
 #include "cli_args.hpp"
@@ -103,6 +104,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   std::printf("mode      %s, frames %zu..%zu, %d pyramid levels, scale %.2f, FAST threshold %d\n",
               options.mode == slam::RunMode::realtime ? "realtime" : "deterministic", options.first, end - 1,
               settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold);
+  if (options.rate > 0.0) {
+    std::printf("playback  %.3gx the recorded frame rate (frames are handed over at their time stamps)\n",
+                options.rate);
+  }
   std::fflush(stdout);
 
   slam::System system(settings, *backend, options.mode);
@@ -115,9 +120,18 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   // The next pair is read (and for EuRoC rectified) while the current one is processed.
   auto load = [&](std::size_t i) { return dataset->load(i); };
   std::future<slam::StereoPair> next = std::async(std::launch::async, load, options.first);
+  double first_time_s = 0.0, last_time_s = 0.0;
   for (std::size_t i = options.first; i < end; ++i) {
     slam::StereoPair pair = next.get();
     if (i + 1 < end) next = std::async(std::launch::async, load, i + 1);
+    if (options.rate > 0.0) {
+      // Like a camera: the pair is not available before its time stamp (scaled by the rate).
+      if (i == options.first) first_time_s = pair.time_s;
+      last_time_s = pair.time_s;
+      const auto due = run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                       std::chrono::duration<double>((pair.time_s - first_time_s) / options.rate));
+      std::this_thread::sleep_until(due);
+    }
     const slam::TrackingResult result = system.process(pair);
     ++summary.frames;
     if (result.state == slam::TrackingState::ok) ++summary.tracked;
@@ -176,6 +190,15 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"3 tracking", quantiles(tracking_ns)}, {"4 local map", quantiles(local_map_ns)},
       {"5 BA", quantiles(ba_ns)},             {"6 frame", quantiles(frame_ns)}};
   summary.median_frame_ms = stages.at("6 frame").median_ms;
+  if (options.rate > 0.0 && summary.frames > 1) {
+    // A frame is late when processing it took longer than the time to the next frame.
+    const std::vector<slam::FrameTimes>& times = system.frame_times();
+    const double span_s = std::max(1e-9, (last_time_s - first_time_s) / options.rate);
+    const double interval_ns = 1e9 * span_s / static_cast<double>(summary.frames - 1);
+    for (const slam::FrameTimes& t : times) {
+      if (static_cast<double>(t.total_ns) > interval_ns) ++summary.late_frames;
+    }
+  }
 
   std::printf("\nframes %zu, tracked %zu, lost %zu; keyframes %zu, map points %zu\n", summary.frames,
               summary.tracked, summary.lost, summary.keyframes, summary.map_points);
@@ -186,6 +209,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   for (const auto& [name, q] : stages) std::printf("%-12s %s\n", name.substr(2).c_str(), format_ms(q).c_str());
   std::printf("(frontend includes stereo matching; frame = frontend + tracking%s; local map and BA are per keyframe)\n",
               options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes" : "");
+  if (options.rate > 0.0) {
+    std::printf("frames that took longer than the frame interval at %.3gx: %zu of %zu\n", options.rate,
+                summary.late_frames, summary.frames);
+  }
 
   if (!trajectory.empty()) {
     double farthest = 0.0;
@@ -237,7 +264,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
          << ", \"p95\": " << q.p95_ms << ", \"mean\": " << q.mean_ms << ", \"count\": " << q.count << "}";
     first = false;
   }
-  json << "\n  },\n  \"ate\": " << ate_json << "\n}\n";
+  json << "\n  },\n  \"rate\": " << options.rate << ",\n  \"late_frames\": " << summary.late_frames
+       << ",\n  \"ate\": " << ate_json << "\n}\n";
   return summary;
 }
 
@@ -256,7 +284,9 @@ std::string slam_run_options_usage() {
          "  --frames N          number of frames (default: all)\n"
          "  --levels N          pyramid levels (default 8)\n"
          "  --json FILE         summary JSON (default <out>/summary.json)\n"
-         "  --quiet             no progress lines\n";
+         "  --quiet             no progress lines\n"
+         "  --rate R            hand frames over at R x the recorded frame rate, as a camera would\n"
+         "                      (1 = real time); default 0 = as fast as possible\n";
 }
 
 bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, SlamRunOptions& options) {
@@ -295,6 +325,11 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     if (options.levels < 1 || options.levels > 12) throw CliError("--levels must be in [1, 12]");
   } else if (option == "--json") {
     options.json = cursor.value(option);
+  } else if (option == "--rate") {
+    options.rate = parse_double(option, cursor.value(option));
+    if (!(options.rate >= 0.0) || !std::isfinite(options.rate)) {
+      throw CliError("--rate must be a finite number >= 0 (1 = the recorded frame rate, 0 = as fast as possible)");
+    }
   } else if (option == "--quiet") {
     options.quiet = true;
   } else {

@@ -24,6 +24,10 @@ struct SlamRunOptions {
   int levels = 0;                 ///< 0 = the settings file's or the default (8)
   std::string json;               ///< summary JSON path; empty = <out>/summary.json
   bool quiet = false;             ///< no progress lines
+  /// Playback speed relative to the recorded frame times: each pair is handed to SLAM no earlier
+  /// than (its time - the first time) / rate after the start, as a camera at rate x its frame
+  /// rate would deliver it. 0 = as fast as possible.
+  double rate = 0.0;
 };
 
 /// What a run measured, for callers that check it (demo, tests).
@@ -32,6 +36,7 @@ struct SlamRunSummary {
   bool has_ate = false;
   double ate_rmse_m = 0.0, path_length_m = 0.0;
   double median_frame_ms = 0.0;
+  std::size_t late_frames = 0;    ///< with a rate: frames that took longer than their interval
 };
 
 /// Runs and reports. Throws CliError / DatasetError / SettingsFileError / BackendError with a

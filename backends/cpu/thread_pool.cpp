@@ -30,7 +30,7 @@ void ThreadPool::parallel_for(std::int64_t begin, std::int64_t end, const std::f
   next_ = begin;
   end_ = end;
   chunk_ = std::max<std::int64_t>(1, (end - begin) / (static_cast<std::int64_t>(size()) * 4));
-  active_ = static_cast<int>(workers_.size());
+  running_ = 0;
   ++generation_;
   lock.unlock();
   wake_.notify_all();
@@ -42,8 +42,11 @@ void ThreadPool::parallel_for(std::int64_t begin, std::int64_t end, const std::f
     if (a >= b) break;
     for (std::int64_t i = a; i < b; ++i) fn(i);
   }
+  // Every chunk is claimed; wait only for chunks still running. A worker the scheduler has not
+  // run yet (the cores busy elsewhere, e.g. with SLAM's mapping thread) finds no work when it
+  // wakes and is not waited for.
   lock.lock();
-  done_.wait(lock, [this] { return active_ == 0; });
+  done_.wait(lock, [this] { return running_ == 0; });
   job_ = nullptr;
 }
 
@@ -54,16 +57,17 @@ void ThreadPool::worker_loop() {
     wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
     if (stop_) return;
     seen = generation_;
-    const auto* fn = job_;
     for (;;) {
       const std::int64_t a = next_, b = std::min(end_, a + chunk_);
-      next_ = b;
       if (a >= b) break;
+      next_ = b;
+      ++running_;
+      const auto* fn = job_;
       lock.unlock();
       for (std::int64_t i = a; i < b; ++i) (*fn)(i);
       lock.lock();
+      if (--running_ == 0 && next_ >= end_) done_.notify_all();
     }
-    if (--active_ == 0) done_.notify_all();
   }
 }
 

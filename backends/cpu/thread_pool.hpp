@@ -34,7 +34,7 @@ class ThreadPool {
   std::condition_variable wake_, done_;
   const std::function<void(std::int64_t)>* job_ = nullptr;
   std::int64_t next_ = 0, end_ = 0, chunk_ = 1;
-  int active_ = 0;
+  int running_ = 0;  // chunks being run by workers
   std::uint64_t generation_ = 0;
   bool stop_ = false;
 };

@@ -13,8 +13,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <mutex>
 #include <optional>
+#include <vector>
 
 #include "mapping_steps.hpp"
 #include "porta/slam/optim/chi2.hpp"
@@ -103,11 +105,40 @@ void keep_consistent_rotations(std::vector<Match>& matches, const FrameFeatures&
   matches = std::move(kept);
 }
 
+/// The free features of keyframe 2 laid out for the epipolar scan: everything the inner loop
+/// tests, computed once per keyframe pair instead of once per feature of keyframe 1.
+struct EpipolarCandidates {
+  std::vector<double> u, v;
+  std::vector<double> band;           ///< chi2 (1 DoF, 95%) x sigma^2 of the feature's level
+  std::vector<std::uint8_t> near_epipole_mono;  ///< no stereo depth and within 10 px x scale of the epipole
+  std::vector<int> feature;
+
+  EpipolarCandidates(const FrameFeatures& f2, const std::vector<int>& free2, const Eigen::Vector2d& epipole2,
+                     const ScalePyramid& pyramid) {
+    const std::size_t n = free2.size();
+    u.resize(n);
+    v.resize(n);
+    band.resize(n);
+    near_epipole_mono.resize(n);
+    feature = free2;
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto s2 = static_cast<std::size_t>(free2[j]);
+      u[j] = f2.uv[s2].x();
+      v[j] = f2.uv[s2].y();
+      band[j] = kEpipolarChi2 * pyramid.sigma2[f2.level[s2]];
+      const double dx = epipole2.x() - u[j], dy = epipole2.y() - v[j];
+      near_epipole_mono[j] = !f2.has_depth(s2) && dx * dx + dy * dy < 100.0 * pyramid.scale[f2.level[s2]];
+    }
+  }
+};
+
 /// Epipolar-constrained brute-force search between the free features of two keyframes.
 std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::vector<int>& free1,
                                             const FrameFeatures& f2, const std::vector<int>& free2,
                                             const Eigen::Matrix3d& F12, const Eigen::Vector2d& epipole2,
                                             const ScalePyramid& pyramid) {
+  const EpipolarCandidates candidates(f2, free2, epipole2, pyramid);
+  const std::size_t n2 = free2.size();
   // Best partner of each feature of keyframe 2 (index into `matches`, -1 none): uniqueness.
   std::vector<int> taken_by(f2.size(), -1);
   std::vector<Match> matches;
@@ -116,19 +147,16 @@ std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::
     const Eigen::Vector3d line = F12.transpose() * Eigen::Vector3d(f1.uv[s1].x(), f1.uv[s1].y(), 1.0);
     const double line_norm2 = line.x() * line.x() + line.y() * line.y();
     if (!(line_norm2 > 0.0)) continue;
-    const bool stereo1 = f1.has_depth(s1);
+    // Without stereo depth on either side, a ray nearly along the baseline has no usable depth.
+    const bool skip_near_epipole = !f1.has_depth(s1);
     int best = 256, second = 256, best_i2 = -1;
-    for (const int i2 : free2) {
-      const auto s2 = static_cast<std::size_t>(i2);
-      const double u2 = f2.uv[s2].x(), v2 = f2.uv[s2].y();
-      const double num = line.x() * u2 + line.y() * v2 + line.z();
-      if (num * num >= kEpipolarChi2 * pyramid.sigma2[f2.level[s2]] * line_norm2) continue;
-      if (!stereo1 && !f2.has_depth(s2)) {
-        // Too close to the epipole: the ray is nearly along the baseline, depth is ill-defined.
-        const double dx = epipole2.x() - u2, dy = epipole2.y() - v2;
-        if (dx * dx + dy * dy < 100.0 * pyramid.scale[f2.level[s2]]) continue;
-      }
-      const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[s2]);
+    for (std::size_t j = 0; j < n2; ++j) {
+      // Squared distance to the epipolar line within the band (num^2 / |line|^2 < band).
+      const double num = line.x() * candidates.u[j] + line.y() * candidates.v[j] + line.z();
+      if (num * num >= candidates.band[j] * line_norm2) continue;
+      if (skip_near_epipole && candidates.near_epipole_mono[j] != 0) continue;
+      const int i2 = candidates.feature[j];
+      const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
       if (distance < best) {
         second = best;
         best = distance;

@@ -14,6 +14,7 @@ porta_cli_test(run_missing_dataset EXIT 1 STDERR "portaslam run: .*no_such_folde
 porta_cli_test(run_bad_mode EXIT 1 STDERR "--mode must be realtime or deterministic, got 'fast'"
                ARGS run --dataset kitti x --mode fast)
 porta_cli_test(run_unknown_option EXIT 1 STDERR "unknown option '--speed'" ARGS run --speed 2)
+porta_cli_test(run_bad_rate EXIT 1 STDERR "--rate must be a finite number >= 0" ARGS run --dataset kitti x --rate -1)
 porta_cli_test(run_unavailable_backend EXIT 1 STDERR "portaslam run: .*(nosuch|unknown)"
                ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --backend nosuch)
 porta_cli_test(run_missing_settings EXIT 1 STDERR "no_such_settings.yaml"
@@ -28,6 +29,11 @@ if(EXISTS ${PORTA_DATA_DIR}/euroc-v101-head)
   porta_cli_test(run_euroc_standing_still EXIT 0
                  STDOUT "frames 24, tracked 24, lost 0.*farthest from the first pose 0\\.00[0-9]+ m.*ATE"
                  ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --mode deterministic --out euroc-run --quiet)
+  # Paced like a camera at twice the recorded 20 Hz (0.6 s): realtime mode, every frame tracked,
+  # and the report says how many frames overran their interval.
+  porta_cli_test(run_euroc_paced EXIT 0
+                 STDOUT "playback  2x the recorded frame rate.*frames 24, tracked 24, lost 0.*longer than the frame interval at 2x: [0-9]+ of 24"
+                 ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --rate 2 --out euroc-paced --quiet)
 endif()
 # The README's first command, shortened: render the street loop and track it without loss.
 porta_cli_test(demo_short EXIT 0 STDOUT "rendered 40 frames.*frames 40, tracked 40, lost 0.*ATE.*tracking never lost"
