@@ -117,13 +117,16 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   slam::TrackingState previous = slam::TrackingState::not_initialized;
   std::string waiting_reason;
   const auto run_start = std::chrono::steady_clock::now();
-  // The next pair is read (and for EuRoC rectified) while the current one is processed.
+  // As fast as possible, the next pair is read (and for EuRoC rectified) while the current one is
+  // processed. Paced like a camera, it is read after: a camera delivers decoded images, so reading
+  // files must not compete with SLAM for the cores while a frame is processed.
   auto load = [&](std::size_t i) { return dataset->load(i); };
+  const bool prefetch = options.rate <= 0.0;
   std::future<slam::StereoPair> next = std::async(std::launch::async, load, options.first);
   double first_time_s = 0.0, last_time_s = 0.0;
   for (std::size_t i = options.first; i < end; ++i) {
     slam::StereoPair pair = next.get();
-    if (i + 1 < end) next = std::async(std::launch::async, load, i + 1);
+    if (prefetch && i + 1 < end) next = std::async(std::launch::async, load, i + 1);
     if (options.rate > 0.0) {
       // Like a camera: the pair is not available before its time stamp (scaled by the rate).
       if (i == options.first) first_time_s = pair.time_s;
@@ -133,6 +136,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       std::this_thread::sleep_until(due);
     }
     const slam::TrackingResult result = system.process(pair);
+    if (!prefetch && i + 1 < end) next = std::async(std::launch::deferred, load, i + 1);
     ++summary.frames;
     if (result.state == slam::TrackingState::ok) ++summary.tracked;
     if (result.state == slam::TrackingState::lost) {

@@ -1,9 +1,11 @@
 // Orientation and ORB descriptor kernels of the cpu backend: the reference for DESIGN.md §3.6
 // and §3.8. One keypoint per parallel_for index; each writes only its own record or descriptor.
+#include <array>
 #include <cstdint>
 #include <string>
 
 #include "cpu/cpu_backend.hpp"
+#include "cpu/simd.hpp"
 #include "porta/kernel_checks.hpp"
 #include "porta/tables.hpp"
 
@@ -45,6 +47,51 @@ std::int32_t cross(const std::int32_t* u, std::int32_t m10, std::int32_t m01) {
   return u[0] * m01 - u[1] * m10;
 }
 
+using simd::convert;
+using simd::load;
+using simd::u16x16;
+using simd::u8x16;
+
+/// The moments m10 = sum dx * I and m01 = sum dy * I over the disc |dy| <= 15, |dx| <= umax[|dy|]
+/// around `centre`, each row's 31 columns in two 16-lane halves: lanes 0..15 of the left half hold
+/// dx = -15..0, lanes 0..15 of the right half dx = 0..15 (its lane 0, the centre column, is masked
+/// off: the left half counts it). The loads stay inside [-15, 15], which check_keypoints() and
+/// check_orient_tables() (umax in [0, 15]) guarantee to be inside the level. Per lane, over the
+/// 31 rows:
+///   column[dx]   = sum_dy I          <= 31 * 255 = 7 905, exact in uint16;
+///   weighted[dx] = sum_dy dy * I     |.| <= 255 * (1 + ... + 15) = 30 600, exact in int16 (the
+///                                     uint16 lanes wrap, and the final value fits);
+/// then m10 = sum_dx dx * column[dx] and m01 = sum_dx weighted[dx] in int32.
+PORTA_CPU_HOT void disc_moments(const std::uint8_t* centre, std::int64_t pitch,
+                                const std::array<int, 16>& umax, std::int32_t* m10_out,
+                                std::int32_t* m01_out) {
+  const u16x16 lane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+  u16x16 column_left = {}, column_right = {}, weighted_left = {}, weighted_right = {};
+  for (int dy = -kOrientationRadius; dy <= kOrientationRadius; ++dy) {
+    const std::uint8_t* row = centre + dy * pitch;
+    const auto half_width = static_cast<std::uint16_t>(umax[dy < 0 ? -dy : dy]);
+    // Inside the disc: left lane l (dx = l - 15) when l >= 15 - half_width; right lane l (dx = l)
+    // when 1 <= l <= half_width. Comparisons give all-ones (-1) lanes, so they serve as masks.
+    const u16x16 in_left = (u16x16)(lane >= static_cast<std::uint16_t>(15 - half_width));
+    const u16x16 in_right = (u16x16)((lane >= 1) & (lane <= half_width));
+    const u16x16 left = convert<u16x16>(load<u8x16>(row - kOrientationRadius)) & in_left;
+    const u16x16 right = convert<u16x16>(load<u8x16>(row)) & in_right;
+    const auto dy16 = static_cast<std::uint16_t>(dy);  // dy modulo 2^16
+    column_left += left;
+    column_right += right;
+    weighted_left += left * dy16;
+    weighted_right += right * dy16;
+  }
+  std::int32_t m10 = 0, m01 = 0;
+  for (int l = 0; l < 16; ++l) {
+    m10 += (l - kOrientationRadius) * static_cast<std::int32_t>(column_left[l]) +
+           l * static_cast<std::int32_t>(column_right[l]);
+    m01 += static_cast<std::int16_t>(weighted_left[l]) + static_cast<std::int16_t>(weighted_right[l]);
+  }
+  *m10_out = m10;
+  *m01_out = m01;
+}
+
 }  // namespace
 
 // §3.6: angle_bin of each listed keypoint from the moments m10 = sum dx * I, m01 = sum dy * I over
@@ -65,16 +112,7 @@ void CpuBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, Devi
         as<std::uint8_t>(pyramid, plane.offset_bytes) + static_cast<std::int64_t>(kp.y) * plane.pitch + kp.x;
     // |m| <= 255 * sum over the half disc of |dx| < 2^20, so int32 holds both moments.
     std::int32_t m10 = 0, m01 = 0;
-    for (int dy = -kOrientationRadius; dy <= kOrientationRadius; ++dy) {
-      const std::uint8_t* row = centre + static_cast<std::int64_t>(dy) * plane.pitch;
-      const int half_width = umax[dy < 0 ? -dy : dy];
-      std::int32_t row_sum = 0;
-      for (int dx = -half_width; dx <= half_width; ++dx) {
-        row_sum += row[dx];
-        m10 += dx * row[dx];
-      }
-      m01 += dy * row_sum;
-    }
+    disc_moments(centre, plane.pitch, umax, &m10, &m01);
     int bin = 0;
     for (int b = 0; b < bins; ++b) {
       const int next = b + 1 == bins ? 0 : b + 1;

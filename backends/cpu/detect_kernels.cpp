@@ -3,6 +3,7 @@
 // definitions of DESIGN.md §3.3-3.5; every device backend must reproduce their bytes.
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "cpu/cpu_backend.hpp"
+#include "cpu/simd.hpp"
 #include "porta/kernel_checks.hpp"
 #include "porta/tables.hpp"
 
@@ -39,6 +41,228 @@ void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, cons
   checks::check_same_level_sizes("cpu", call, a, b);
 }
 
+using simd::i8x32;
+using simd::u16x16;
+using simd::u8x32;
+
+/// True when any lane of `v` is non-zero (e.g. any lane of a comparison result is true).
+template <typename V>
+[[gnu::always_inline]] inline bool any_lane(const V& v) {
+  std::uint64_t words[sizeof(V) / 8];
+  std::memcpy(words, &v, sizeof(V));
+  std::uint64_t any = 0;
+  for (const std::uint64_t w : words) any |= w;
+  return any != 0;
+}
+
+// ---- FAST CRF ----------------------------------------------------------------------------------
+
+/// The reference FAST CRF of one pixel, straight from §3.3. `eps` is clamped to [-256, 256]
+/// (which changes no test: |I_i - c| <= 255), so c +/- eps cannot overflow.
+[[gnu::always_inline]] inline std::uint16_t fast_response(const std::uint8_t* centre,
+                                                          const std::ptrdiff_t* offsets, int eps,
+                                                          const std::uint8_t* pass) {
+  const int c = *centre;
+  unsigned bright = 0, dark = 0;
+  int sum = 0;
+  for (int i = 0; i < 16; ++i) {
+    const int p = centre[offsets[i]];
+    // Two independent tests, as in the contract (they only exclude each other for eps >= 0).
+    if (p > c + eps) bright |= 1u << i;
+    if (p < c - eps) dark |= 1u << i;
+    sum += std::abs(p - c);
+  }
+  // 16 * 255 = 4080: the sum always fits the uint16 response.
+  return (pass[bright] | pass[dark]) ? static_cast<std::uint16_t>(sum) : std::uint16_t{0};
+}
+
+/// The fewest set bits of any mask that `pass` accepts (17 when it accepts none). A pixel whose
+/// bright and dark masks both have fewer set bits cannot be a corner, whatever the table's shape.
+int min_passing_popcount(const std::uint8_t* pass) {
+  int fewest = 17;
+  for (unsigned mask = 0; mask < 65536; mask += 8) {
+    std::uint64_t eight;  // most of a FAST table is zero: skip eight entries at a time
+    std::memcpy(&eight, pass + mask, sizeof(eight));
+    if (eight == 0) continue;
+    for (unsigned m = mask; m < mask + 8; ++m)
+      if (pass[m] != 0) fewest = std::min(fewest, std::popcount(m));
+  }
+  return fewest;
+}
+
+/// Sum |I_i - c| over the circle: the response of a pixel known to be a corner.
+[[gnu::always_inline]] inline std::uint16_t circle_sum(const std::uint8_t* centre,
+                                                       const std::ptrdiff_t* offsets) {
+  int sum = 0;
+  for (int i = 0; i < 16; ++i) sum += std::abs(centre[offsets[i]] - *centre);
+  return static_cast<std::uint16_t>(sum);
+}
+
+/// Responses of pixels [x_begin, x_end) of one row (all at least 3 px inside the level), for
+/// 0 <= eps <= 256. The vector step takes 32 pixels at a time and first only counts, per pixel,
+/// the bright and dark circle pixels: no mask with fewer than `min_bits` set passes, so a block
+/// where no pixel reaches it is all zeros (most blocks). Otherwise a second pass builds the masks,
+/// and only the candidate pixels look them up; the rare corners then sum their circle.
+PORTA_CPU_HOT void fast_crf_row(const std::uint8_t* row, const std::ptrdiff_t* offsets, int x_begin,
+                                int x_end, int eps, const std::uint8_t* pass, int min_bits,
+                                std::uint16_t* out) {
+  constexpr int kLanes = 32;
+  if (x_end - x_begin < kLanes) {
+    for (int x = x_begin; x < x_end; ++x) out[x] = fast_response(row + x, offsets, eps, pass);
+    return;
+  }
+  // eps >= 255 tests like eps = 255: no pixel is then above c + eps or below c - eps.
+  const auto eps8 = static_cast<std::uint8_t>(std::min(eps, 255));
+  const auto fewest = static_cast<std::int8_t>(min_bits);  // <= 17
+  const std::uint8_t flip = 0x80;
+  const u8x32 zero8{}, all_ones = zero8 + 0xFF;
+  const u16x16 zero16{};
+  for (int x = x_begin;; x += kLanes) {
+    // The last block ends at x_end and may overlap the previous one (it recomputes the same values).
+    x = std::min(x, x_end - kLanes);
+    const std::uint8_t* centre = row + x;
+    const u8x32 c = simd::load<u8x32>(centre);
+    // c + eps and c - eps saturated to [0, 255]: where they wrap, "p > c + eps" (> 255) and
+    // "p < c - eps" (< 0) never hold, and neither does p > 255 or p < 0.
+    u8x32 above = c + eps8;
+    above = above < c ? all_ones : above;
+    u8x32 below = c - eps8;
+    below = below > c ? zero8 : below;
+    // Bytes with the top bit flipped compare as unsigned under signed (native) compares.
+    const auto above_s = (i8x32)(above ^ flip);
+    const auto below_s = (i8x32)(below ^ flip);
+    // Per lane, minus the number of circle pixels brighter than c + eps, and darker than c - eps
+    // (a true comparison is -1).
+    i8x32 bright_count{}, dark_count{};
+    for (int i = 0; i < 16; ++i) {
+      const auto p = (i8x32)(simd::load<u8x32>(centre + offsets[i]) ^ flip);
+      bright_count += p > above_s;
+      dark_count += p < below_s;
+    }
+    simd::store(out + x, zero16);
+    simd::store(out + x + 16, zero16);
+    const i8x32 candidate = (-bright_count >= fewest) | (-dark_count >= fewest);
+    if (any_lane(candidate)) {
+      // The masks: bits 0-7 and bits 8-15 of each lane's bright and dark mask in separate bytes.
+      u8x32 bright_low{}, bright_high{}, dark_low{}, dark_high{};
+      for (int i = 0; i < 8; ++i) {
+        const auto bit = static_cast<std::uint8_t>(1u << i);
+        const auto p_low = (i8x32)(simd::load<u8x32>(centre + offsets[i]) ^ flip);
+        const auto p_high = (i8x32)(simd::load<u8x32>(centre + offsets[i + 8]) ^ flip);
+        bright_low |= (u8x32)(p_low > above_s) & bit;
+        dark_low |= (u8x32)(p_low < below_s) & bit;
+        bright_high |= (u8x32)(p_high > above_s) & bit;
+        dark_high |= (u8x32)(p_high < below_s) & bit;
+      }
+      std::uint8_t lanes[kLanes], b_low[kLanes], b_high[kLanes], d_low[kLanes], d_high[kLanes];
+      simd::store(lanes, candidate);
+      simd::store(b_low, bright_low);
+      simd::store(b_high, bright_high);
+      simd::store(d_low, dark_low);
+      simd::store(d_high, dark_high);
+      // Visit only the candidate lanes (0xFF bytes), eight lanes to a word.
+      for (int first = 0; first < kLanes; first += 8) {
+        std::uint64_t word;
+        std::memcpy(&word, lanes + first, sizeof(word));
+        while (word != 0) {
+          const int bit = std::countr_zero(word) & ~7;
+          word &= ~(std::uint64_t{0xFF} << bit);
+          const int j = first + bit / 8;
+          const unsigned bright = b_low[j] | (unsigned{b_high[j]} << 8);
+          const unsigned dark = d_low[j] | (unsigned{d_high[j]} << 8);
+          if (pass[bright] | pass[dark]) out[x + j] = circle_sum(centre + j, offsets);
+        }
+      }
+    }
+    if (x + kLanes >= x_end) break;
+  }
+}
+
+// ---- Culling -----------------------------------------------------------------------------------
+
+/// The reference culling of one cell [x0, x1) x [y0, y1): a row-major scan with a strict '>'
+/// keeps the first maximum. Used where a level is too narrow for the vector path.
+Keypoint cull_cell_scalar(const std::uint16_t* level, std::ptrdiff_t pitch, int x0, int x1, int y0, int y1,
+                          int level_index) {
+  std::uint16_t best = 0;
+  int best_x = 0, best_y = 0;
+  for (int y = y0; y < y1; ++y) {
+    const std::uint16_t* row = level + static_cast<std::ptrdiff_t>(y) * pitch;
+    for (int x = x0; x < x1; ++x) {
+      if (row[x] > best) {
+        best = row[x];
+        best_x = x;
+        best_y = y;
+      }
+    }
+  }
+  Keypoint kp{};
+  if (best > 0) {
+    kp.x = static_cast<std::uint16_t>(best_x);
+    kp.y = static_cast<std::uint16_t>(best_y);
+    kp.response = best;
+    kp.level = static_cast<std::uint8_t>(level_index);
+  }
+  return kp;
+}
+
+/// The culling order as one integer: larger response first, then smaller row, then smaller
+/// column (coordinates fit 16 bits, as in Keypoint), so a cell's winner is its largest key.
+inline std::uint64_t cull_key(std::uint16_t response, int x, int y) {
+  return (std::uint64_t{response} << 32) | (std::uint64_t{0xFFFFu - static_cast<unsigned>(y)} << 16) |
+         std::uint64_t{0xFFFFu - static_cast<unsigned>(x)};
+}
+
+Keypoint keypoint_of(std::uint64_t key, int level_index) {
+  Keypoint kp{};
+  const auto response = static_cast<std::uint16_t>(key >> 32);
+  if (response == 0) return kp;
+  kp.x = static_cast<std::uint16_t>(0xFFFFu - (key & 0xFFFFu));
+  kp.y = static_cast<std::uint16_t>(0xFFFFu - ((key >> 16) & 0xFFFFu));
+  kp.response = response;
+  kp.level = static_cast<std::uint8_t>(level_index);
+  return kp;
+}
+
+/// One row of cells: rows [y0, y1) of the level, cells of `cell_w` columns over [0, x_limit),
+/// x_limit >= 16; writes out[0, cols). The vector step takes 16 columns at a time down the rows
+/// and keeps, per column, its maximum and the first row holding it; then the columns are folded
+/// into their cells, in order, by the largest cull_key().
+PORTA_CPU_HOT void cull_cell_row(const std::uint16_t* level, std::ptrdiff_t pitch, int x_limit, int y0,
+                                 int y1, int cell_w, int cols, int level_index, Keypoint* out) {
+  constexpr int kLanes = 16;
+  std::uint16_t column_max[kLanes], column_row[kLanes];
+  int cell = 0, cell_end = cell_w;  // the cell being folded and its first column past the end
+  std::uint64_t best = 0;
+  for (int x = 0, done = 0; done < x_limit; x += kLanes) {
+    // The last strip ends at x_limit and may overlap the previous one; its columns below `done`
+    // were folded already.
+    const int xs = std::min(x, x_limit - kLanes);
+    u16x16 max_v{}, row_v{};
+    for (int y = y0; y < y1; ++y) {
+      const u16x16 this_row = u16x16{} + static_cast<std::uint16_t>(y);
+      const u16x16 v = simd::load<u16x16>(level + static_cast<std::ptrdiff_t>(y) * pitch + xs);
+      const u16x16 higher = v > max_v ? v : max_v;
+      // Only a strictly larger value moves a column's row: the first row of its maximum stays.
+      row_v = higher == max_v ? row_v : this_row;
+      max_v = higher;
+    }
+    simd::store(column_max, max_v);
+    simd::store(column_row, row_v);
+    for (int col = done; col < xs + kLanes; ++col) {
+      if (col >= cell_end) {
+        out[cell++] = keypoint_of(best, level_index);
+        cell_end += cell_w;
+        best = 0;
+      }
+      best = std::max(best, cull_key(column_max[col - xs], col, column_row[col - xs]));
+    }
+    done = xs + kLanes;
+  }
+  out[cell++] = keypoint_of(best, level_index);
+  for (; cell < cols; ++cell) out[cell] = Keypoint{};  // cells wholly past the level's width
+}
+
 }  // namespace
 
 // §3.3 FAST CRF with bounded rectification: response = sum |I_i - c| over the 16-pixel circle when
@@ -48,9 +272,13 @@ void CpuBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, co
                           Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
   check_same_level_sizes(layout, response_layout, "fast_crf");
   checks::check_fast_edge("cpu", params);
+  // The whole table is read (min_passing_popcount), not only the entries of masks that occur.
+  checks::check_bytes("cpu", "fast_crf", "the FAST table", lut, 65536);
   const std::uint8_t* pass = as<std::uint8_t>(lut);
-  const int eps = params.threshold;
+  // |I_i - c| <= 255, so clamping eps to [-256, 256] changes no test and keeps c +/- eps in range.
+  const int eps = std::clamp(params.threshold, -256, 256);
   const int edge = params.edge;
+  const int min_bits = min_passing_popcount(pass);
 
   std::vector<int> heights;
   std::vector<std::array<std::ptrdiff_t, 16>> circle_offsets;
@@ -69,33 +297,30 @@ void CpuBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, co
     const Plane& dst = response_layout.levels[n];
     std::uint16_t* out =
         as<std::uint16_t>(responses, dst.offset_bytes) + static_cast<std::ptrdiff_t>(y) * dst.pitch;
-    std::fill(out, out + dst.width, std::uint16_t{0});
-    if (y < edge || y >= src.height - edge) return;
+    const int x_begin = edge, x_end = src.width - edge;
+    if (y < edge || y >= src.height - edge || x_begin >= x_end) {
+      std::fill(out, out + dst.width, std::uint16_t{0});
+      return;
+    }
+    std::fill(out, out + x_begin, std::uint16_t{0});
+    std::fill(out + x_end, out + dst.width, std::uint16_t{0});
 
     const std::uint8_t* row =
         as<std::uint8_t>(pyramid, src.offset_bytes) + static_cast<std::ptrdiff_t>(y) * src.pitch;
-    const auto& offsets = circle_offsets[static_cast<std::size_t>(n)];
-    for (int x = edge; x < src.width - edge; ++x) {
-      const std::uint8_t* centre = row + x;
-      const int c = *centre;
-      unsigned bright = 0, dark = 0;
-      int sum = 0;
-      for (int i = 0; i < 16; ++i) {
-        const int p = centre[offsets[i]];
-        // Two independent tests, as in the contract (they only exclude each other for eps >= 0).
-        if (p > c + eps) bright |= 1u << i;
-        if (p < c - eps) dark |= 1u << i;
-        sum += std::abs(p - c);
-      }
-      // 16 * 255 = 4080: the sum always fits the uint16 response.
-      if (pass[bright] | pass[dark]) out[x] = static_cast<std::uint16_t>(sum);
+    const std::ptrdiff_t* offsets = circle_offsets[static_cast<std::size_t>(n)].data();
+    if (eps >= 0) {
+      fast_crf_row(row, offsets, x_begin, x_end, eps, pass, min_bits, out);
+    } else {
+      // A negative eps lets one circle pixel be both bright and dark: the counting bound of the
+      // vector step does not cover it, so the plain loop runs.
+      for (int x = x_begin; x < x_end; ++x) out[x] = fast_response(row + x, offsets, eps, pass);
     }
   });
 }
 
 // §3.4 feature culling: the largest response of each cell as a Keypoint at
-// cells[first_cell + row * cols + col]; the row-major scan with a strict '>' sends ties to the
-// smaller row, then column. A cell whose maximum is 0 gets an all-zero record.
+// cells[first_cell + row * cols + col]; ties go to the smaller row, then column. A cell whose
+// maximum is 0 gets an all-zero record.
 void CpuBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                             const CellLayout& cell_layout, Buffer& cells) {
   if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
@@ -111,31 +336,20 @@ void CpuBackend::cull_cells(const Buffer& responses, const PyramidLayout& respon
     const Plane& plane = response_layout.levels[n];
     const LevelCells& grid = cell_layout.levels[static_cast<std::size_t>(n)];
     const std::uint16_t* level = as<std::uint16_t>(responses, plane.offset_bytes);
+    Keypoint* out_row = out + grid.first_cell + static_cast<std::ptrdiff_t>(cell_y) * grid.cols;
     const int y0 = cell_y * grid.cell_h;
     const int y1 = std::min(y0 + grid.cell_h, plane.height);
+    // Columns that belong to some cell; cells past the level's width stay empty.
+    const auto x_limit =
+        static_cast<int>(std::min<std::int64_t>(plane.width, std::int64_t{grid.cols} * grid.cell_w));
+    if (grid.cell_w > 0 && grid.cell_h > 0 && x_limit >= 16) {
+      cull_cell_row(level, plane.pitch, x_limit, y0, y1, grid.cell_w, grid.cols, n, out_row);
+      return;
+    }
     for (int cell_x = 0; cell_x < grid.cols; ++cell_x) {
       const int x0 = cell_x * grid.cell_w;
       const int x1 = std::min(x0 + grid.cell_w, plane.width);
-      std::uint16_t best = 0;
-      int best_x = 0, best_y = 0;
-      for (int y = y0; y < y1; ++y) {
-        const std::uint16_t* row = level + static_cast<std::ptrdiff_t>(y) * plane.pitch;
-        for (int x = x0; x < x1; ++x) {
-          if (row[x] > best) {
-            best = row[x];
-            best_x = x;
-            best_y = y;
-          }
-        }
-      }
-      Keypoint kp{};
-      if (best > 0) {
-        kp.x = static_cast<std::uint16_t>(best_x);
-        kp.y = static_cast<std::uint16_t>(best_y);
-        kp.response = best;
-        kp.level = static_cast<std::uint8_t>(n);
-      }
-      out[grid.first_cell + cell_y * grid.cols + cell_x] = kp;
+      out_row[cell_x] = cull_cell_scalar(level, plane.pitch, x0, x1, y0, y1, n);
     }
   });
 }

@@ -1,6 +1,7 @@
 #include "cpu/thread_pool.hpp"
 
 #include <algorithm>
+#include <chrono>
 
 namespace porta::cpu {
 
@@ -14,6 +15,7 @@ ThreadPool::~ThreadPool() {
   {
     std::lock_guard lock(mutex_);
     stop_ = true;
+    stop_flag_ = true;
   }
   wake_.notify_all();
   for (auto& t : workers_) t.join();
@@ -31,7 +33,7 @@ void ThreadPool::parallel_for(std::int64_t begin, std::int64_t end, const std::f
   end_ = end;
   chunk_ = std::max<std::int64_t>(1, (end - begin) / (static_cast<std::int64_t>(size()) * 4));
   running_ = 0;
-  ++generation_;
+  generation_.fetch_add(1, std::memory_order_release);
   lock.unlock();
   wake_.notify_all();
   for (;;) {  // the calling thread works too
@@ -54,9 +56,22 @@ void ThreadPool::worker_loop() {
   std::uint64_t seen = 0;
   std::unique_lock lock(mutex_);
   for (;;) {
-    wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+    if (generation_.load(std::memory_order_relaxed) == seen && !stop_) {
+      // A frame calls parallel_for dozens of times back to back: spin a little before sleeping,
+      // so that the next call finds this worker awake (waking a sleeping thread costs tens of
+      // microseconds, more on a virtual machine whose idle core has halted).
+      lock.unlock();
+      const auto spin_until = std::chrono::steady_clock::now() + kSpinBeforeSleep;
+      for (int k = 1; generation_.load(std::memory_order_acquire) == seen && !stop_flag_.load(std::memory_order_relaxed);
+           ++k) {
+        if (k % 64 == 0 && std::chrono::steady_clock::now() >= spin_until) break;
+        std::this_thread::yield();
+      }
+      lock.lock();
+      wake_.wait(lock, [&] { return stop_ || generation_.load(std::memory_order_relaxed) != seen; });
+    }
     if (stop_) return;
-    seen = generation_;
+    seen = generation_.load(std::memory_order_relaxed);
     for (;;) {
       const std::int64_t a = next_, b = std::min(end_, a + chunk_);
       if (a >= b) break;

@@ -3,6 +3,8 @@
 // never depend on the number of threads or on scheduling.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -35,7 +37,9 @@ class ThreadPool {
   const std::function<void(std::int64_t)>* job_ = nullptr;
   std::int64_t next_ = 0, end_ = 0, chunk_ = 1;
   int running_ = 0;  // chunks being run by workers
-  std::uint64_t generation_ = 0;
+  std::atomic<std::uint64_t> generation_{0};  // written under mutex_; workers spin on it
+  std::atomic<bool> stop_flag_{false};         // stop_, readable while spinning
+  static constexpr std::chrono::microseconds kSpinBeforeSleep{200};
   bool stop_ = false;
 };
 

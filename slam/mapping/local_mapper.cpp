@@ -11,6 +11,11 @@
 #include <chrono>
 #include <stdexcept>
 
+#if defined(__linux__)
+#include <pthread.h>
+#include <sched.h>
+#endif
+
 #include "mapping_steps.hpp"
 
 namespace porta::slam {
@@ -79,10 +84,45 @@ void LocalMapper::stop() {
     stop_requested_ = true;
   }
   queue_cv_.notify_all();
+  tracking_cv_.notify_all();
   thread_.join();
 }
 
+void LocalMapper::tracking_started() {
+  std::lock_guard lock(queue_mutex_);
+  tracking_busy_ = true;
+}
+
+void LocalMapper::tracking_finished() {
+  {
+    std::lock_guard lock(queue_mutex_);
+    tracking_busy_ = false;
+  }
+  tracking_cv_.notify_all();
+}
+
+void LocalMapper::pause_point() {
+  if (!settings_.mapping_yields_to_tracking) return;
+  std::unique_lock lock(queue_mutex_);
+  const auto resume = [this] { return !tracking_busy_ || !queue_.empty() || stop_requested_; };
+  if (resume()) return;
+  const auto since = Clock::now();
+  tracking_cv_.wait(lock, resume);
+  paused_ns_ += elapsed_ns(since);
+}
+
 void LocalMapper::thread_main() {
+#if defined(__linux__)
+  // Tracking's latency comes first. SCHED_IDLE: the mapping thread runs only on a core nothing
+  // else wants, and a waking tracking or frontend thread takes the core at once (a nice value
+  // still lets it finish its time slice first, milliseconds that a 30 ms frame cannot spare).
+  // Best effort: a refusal leaves the thread as it was.
+  if (settings_.mapping_thread_idle_priority) {
+    sched_param param{};
+    param.sched_priority = 0;
+    (void)pthread_setschedparam(pthread_self(), SCHED_IDLE, &param);
+  }
+#endif
   for (;;) {
     KeyFrame* keyframe = nullptr;
     {
@@ -103,7 +143,18 @@ void LocalMapper::thread_main() {
 void LocalMapper::process(KeyFrame* keyframe) {
   MappingTimes times;
   const auto start = Clock::now();
+  const std::int64_t paused_at_start = paused_ns_;
   auto step = Clock::now();
+  std::int64_t paused_at_step = paused_ns_;
+  // Starts a step at a pause point; work_ns() is the step's time without the pauses.
+  const auto begin_step = [&] {
+    pause_point();
+    step = Clock::now();
+    paused_at_step = paused_ns_;
+  };
+  const auto work_ns = [&] { return elapsed_ns(step) - (paused_ns_ - paused_at_step); };
+
+  begin_step();
   {
     std::lock_guard lock(map_.mutex);
     if (!keyframe->bad) {
@@ -111,41 +162,46 @@ void LocalMapper::process(KeyFrame* keyframe) {
       recent_points_.insert(recent_points_.end(), created.begin(), created.end());
     }
   }
-  times.process_ns = elapsed_ns(step);
+  times.process_ns = work_ns();
 
-  step = Clock::now();
+  begin_step();
   {
     std::lock_guard lock(map_.mutex);
     points_culled_ += static_cast<std::uint64_t>(mapping::cull_recent_points(recent_points_, keyframe->id));
   }
-  times.cull_points_ns = elapsed_ns(step);
+  times.cull_points_ns = work_ns();
 
-  step = Clock::now();
-  points_triangulated_ += static_cast<std::uint64_t>(mapping::triangulate_new_points(
-      map_, keyframe, settings_, pyramid_, recent_points_, [this] { return queued_keyframes() > 0; }));
-  times.triangulate_ns = elapsed_ns(step);
+  begin_step();
+  points_triangulated_ += static_cast<std::uint64_t>(
+      mapping::triangulate_new_points(map_, keyframe, settings_, pyramid_, recent_points_, [this] {
+        pause_point();
+        return queued_keyframes() > 0;
+      }));
+  times.triangulate_ns = work_ns();
 
   if (queued_keyframes() == 0) {
-    step = Clock::now();
+    begin_step();
     {
       std::lock_guard lock(map_.mutex);
       points_fused_ +=
           static_cast<std::uint64_t>(mapping::fuse_with_neighbours(keyframe, settings_, pyramid_));
     }
-    times.fuse_ns = elapsed_ns(step);
+    times.fuse_ns = work_ns();
   }
 
   if (queued_keyframes() == 0) {
-    step = Clock::now();
+    begin_step();
     bool enough_keyframes = false;
     {
       std::lock_guard lock(map_.mutex);
       enough_keyframes = map_.num_keyframes() > 2;
     }
-    if (enough_keyframes) mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &abort_ba_);
-    times.bundle_adjustment_ns = elapsed_ns(step);
+    if (enough_keyframes) {
+      mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &abort_ba_, [this] { pause_point(); });
+    }
+    times.bundle_adjustment_ns = work_ns();
 
-    step = Clock::now();
+    begin_step();
     {
       std::lock_guard lock(map_.mutex);
       if (!keyframe->bad) {
@@ -153,9 +209,9 @@ void LocalMapper::process(KeyFrame* keyframe) {
             mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
       }
     }
-    times.cull_keyframes_ns = elapsed_ns(step);
+    times.cull_keyframes_ns = work_ns();
   }
-  times.total_ns = elapsed_ns(start);
+  times.total_ns = elapsed_ns(start) - (paused_ns_ - paused_at_start);
   times_.push_back(times);
 }
 

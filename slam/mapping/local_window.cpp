@@ -82,7 +82,8 @@ BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) 
 }  // namespace
 
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
-                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag) {
+                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
+                            const std::function<void()>& between_iterations) {
   BaProblem problem;
   {
     std::lock_guard lock(map.mutex);
@@ -94,6 +95,7 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
   optim::LocalBundleAdjustmentOptions options;
   options.num_threads = 1;  // deterministic
   options.stop_flag = stop_flag;
+  options.between_iterations = between_iterations;
   const optim::LocalBundleAdjustmentResult result = optim::local_bundle_adjustment(
       settings.camera, problem.ba_keyframes, problem.positions, problem.observations, options);
 

@@ -63,7 +63,8 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
 /// Step 5 (locks the map itself): local bundle adjustment around `keyframe`; keyframe 0 is never
 /// moved. Returns the number of outlier observations erased.
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
-                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag);
+                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
+                            const std::function<void()>& between_iterations = {});
 
 /// Step 6 (caller holds the lock): culls the covisible keyframes of `keyframe` whose close points
 /// are at least 90% seen by 3 other keyframes at the same or a finer scale. Returns the count.

@@ -18,16 +18,20 @@
 namespace porta::slam::optim {
 namespace {
 
-class StopFlagCallback final : public ceres::IterationCallback {
+/// After each iteration: the caller's hook, then its stop flag.
+class IterationHooks final : public ceres::IterationCallback {
  public:
-  explicit StopFlagCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  IterationHooks(const std::atomic<bool>* flag, const std::function<void()>& between)
+      : flag_(flag), between_(between) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-    return flag_->load(std::memory_order_relaxed) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
-                                                  : ceres::SOLVER_CONTINUE;
+    if (between_) between_();
+    return flag_ != nullptr && flag_->load(std::memory_order_relaxed) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                                     : ceres::SOLVER_CONTINUE;
   }
 
  private:
   const std::atomic<bool>* flag_;
+  const std::function<void()>& between_;
 };
 
 void validate_input(std::span<const BaKeyframe> keyframes, std::span<const Eigen::Vector3d> points,
@@ -89,7 +93,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
   ceres::HuberLoss huber_mono(std::sqrt(options.chi2_mono));
   ceres::HuberLoss huber_stereo(std::sqrt(options.chi2_stereo));
   Se3Manifold manifold;
-  StopFlagCallback stop_callback(options.stop_flag);
+  IterationHooks stop_callback(options.stop_flag, options.between_iterations);
   const auto stop_requested = [&] {
     return options.stop_flag != nullptr && options.stop_flag->load(std::memory_order_relaxed);
   };
@@ -138,7 +142,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     ceres::Solver::Options solver_options = detail::quiet_solver_options(iterations, options.num_threads);
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;
-    if (options.stop_flag != nullptr) solver_options.callbacks.push_back(&stop_callback);
+    if (options.stop_flag != nullptr || options.between_iterations) solver_options.callbacks.push_back(&stop_callback);
     ceres::Solve(solver_options, &problem, summary);
     result.iterations += summary->num_successful_steps + summary->num_unsuccessful_steps;
     return true;

@@ -50,6 +50,18 @@ TrackingResult System::process(const StereoPair& pair) {
                                 std::to_string(pair.right.height()) + ") but the camera is " +
                                 std::to_string(camera.width) + "x" + std::to_string(camera.height));
   }
+  // Realtime mode: mapping pauses at its next pause point while this frame is tracked.
+  struct TrackingScope {
+    LocalMapper* mapper;
+    explicit TrackingScope(LocalMapper* m) : mapper(m) {
+      if (mapper != nullptr) mapper->tracking_started();
+    }
+    ~TrackingScope() {
+      if (mapper != nullptr) mapper->tracking_finished();
+    }
+    TrackingScope(const TrackingScope&) = delete;
+    TrackingScope& operator=(const TrackingScope&) = delete;
+  } scope(mode_ == RunMode::realtime ? mapper_.get() : nullptr);
   const auto start = std::chrono::steady_clock::now();
   FrameTimes times;
   const StereoFeatures stereo = frontend_->detect_stereo(pair.left.view(), pair.right.view());

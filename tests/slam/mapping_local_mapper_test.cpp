@@ -239,6 +239,40 @@ TEST(Mapping, StopProcessesEveryQueuedKeyframe) {
   EXPECT_GT(map.num_points(), 0u);
 }
 
+TEST(Mapping, RealtimeMapperPausesWhileAFrameIsTrackedThenFinishes) {
+  const SyntheticScene scene{SceneSpec{}};
+  ASSERT_GE(scene.true_T_cw.size(), 3u);
+  Map map;
+  const SlamSettings settings = test_settings();
+  ASSERT_TRUE(settings.mapping_yields_to_tracking);
+  LocalMapper mapper(settings, map);
+  TrackingStandIn tracking(scene, map, mapper);
+  mapper.start();
+  tracking.insert(0, scene.true_T_cw[0]);
+  wait_until_processed(mapper);
+
+  // A frame is being tracked: the mapper takes keyframe 1 off the queue and stops at its first
+  // pause point, since nothing else waits.
+  mapper.tracking_started();
+  tracking.insert(1, scene.true_T_cw[1]);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(mapper.queued_keyframes(), 0u);
+  EXPECT_FALSE(mapper.accepts_keyframes()) << "the mapper finished a keyframe while a frame was tracked";
+
+  // The frame is done: the mapper goes on.
+  mapper.tracking_finished();
+  wait_until_processed(mapper);
+
+  // Keyframes waiting: the mapper does not pause (it is behind), and stop() does not hang on a
+  // pause point even while a frame is still marked as tracked.
+  mapper.tracking_started();
+  for (std::size_t k = 2; k < scene.true_T_cw.size(); ++k) tracking.insert(k, scene.true_T_cw[k]);
+  mapper.stop();
+  mapper.tracking_finished();
+  EXPECT_EQ(mapper.queued_keyframes(), 0u);
+  EXPECT_EQ(mapper.times().size(), scene.true_T_cw.size());
+}
+
 }  // namespace
 }  // namespace porta::slam::mapping_test
 #endif  // PORTA_SLAM_BUILT

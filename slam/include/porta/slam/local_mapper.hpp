@@ -22,7 +22,8 @@
 
 namespace porta::slam {
 
-/// Time spent per keyframe in each step (nanoseconds), for the end-of-run statistics.
+/// Time spent per keyframe in each step (nanoseconds; pauses for tracking excluded), for the
+/// end-of-run statistics.
 struct MappingTimes {
   std::int64_t process_ns = 0;      ///< link points, update connections
   std::int64_t cull_points_ns = 0;
@@ -56,6 +57,15 @@ class LocalMapper {
   /// Processes what is queued, then joins the thread.
   void stop();
 
+  /// Realtime mode: the tracking thread calls these around each frame. While a frame is being
+  /// tracked the mapping thread waits at its next pause point (between steps, between neighbour
+  /// keyframes of the triangulation, between bundle-adjustment iterations), unless keyframes are
+  /// queued (mapping is behind, so it keeps working), when settings.mapping_yields_to_tracking.
+  /// On a machine whose cores share execution units this keeps tracking's latency that of an idle
+  /// machine; mapping uses the time between frames.
+  void tracking_started();
+  void tracking_finished();
+
   /// One entry per processed keyframe (read after stop() or from the deterministic pipeline).
   const std::vector<MappingTimes>& times() const { return times_; }
   /// Points created by triangulation / merged by fusion / culled as recent points, and keyframes
@@ -68,6 +78,9 @@ class LocalMapper {
  private:
   void process(KeyFrame* keyframe);
   void thread_main();
+  /// In the mapping thread, without Map::mutex held: waits while a frame is being tracked (see
+  /// tracking_started()).
+  void pause_point();
   /// Takes the oldest queued keyframe (nullptr: none) and clears the bundle-adjustment abort flag.
   KeyFrame* pop_keyframe();
 
@@ -80,6 +93,9 @@ class LocalMapper {
   std::atomic<bool> idle_{true};
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> abort_ba_{false};
+  std::condition_variable tracking_cv_;
+  bool tracking_busy_ = false;  ///< under queue_mutex_
+  std::int64_t paused_ns_ = 0;  ///< time pause_point() waited (mapping thread only)
   std::thread thread_;
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
   std::vector<MappingTimes> times_;

@@ -32,6 +32,12 @@ struct SlamSettings {
   int min_tracked_inliers = 30;
   /// Most keyframes between forced keyframes (ORB-SLAM2: the frame rate).
   int max_frames_between_keyframes = 10;
+  /// Realtime mode, Linux: the mapping thread runs at idle priority (SCHED_IDLE), so that it uses
+  /// the cores tracking leaves free and never delays a frame. false: the caller's priority.
+  bool mapping_thread_idle_priority = true;
+  /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
+  /// (LocalMapper::tracking_started()).
+  bool mapping_yields_to_tracking = true;
 
   double close_depth_m() const { return th_depth * camera.baseline_m; }
   /// Throws std::invalid_argument / SettingsError naming the bad field.

@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <atomic>
 #include <cstddef>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -48,6 +49,9 @@ struct LocalBundleAdjustmentOptions {
   /// When set (e.g. by local mapping when a new keyframe arrives) the solver stops at its next
   /// iteration and the second stage is skipped; the outlier check still runs.
   const std::atomic<bool>* stop_flag = nullptr;
+  /// Called after every solver iteration, before stop_flag is read; local mapping pauses there
+  /// while tracking works (LocalMapper::tracking_started()). Empty: nothing.
+  std::function<void()> between_iterations;
 };
 
 struct LocalBundleAdjustmentResult {
