@@ -15,10 +15,15 @@ ThreadPool::~ThreadPool() {
   {
     std::lock_guard lock(mutex_);
     stop_ = true;
-    stop_flag_ = true;
   }
   wake_.notify_all();
   for (auto& t : workers_) t.join();
+}
+
+void ThreadPool::wait_for_workers_outside() const {
+  for (int k = 0; inside_.load() != 0; ++k) {
+    if (k > 64) std::this_thread::yield();
+  }
 }
 
 void ThreadPool::parallel_for(std::int64_t begin, std::int64_t end, const std::function<void(std::int64_t)>& fn) {
@@ -27,62 +32,60 @@ void ThreadPool::parallel_for(std::int64_t begin, std::int64_t end, const std::f
     for (std::int64_t i = begin; i < end; ++i) fn(i);
     return;
   }
-  std::unique_lock lock(mutex_);
+  // Set up (odd generation): workers still inside the previous job leave first.
+  generation_.fetch_add(1);
+  wait_for_workers_outside();
   job_ = &fn;
-  next_ = begin;
   end_ = end;
   chunk_ = std::max<std::int64_t>(1, (end - begin) / (static_cast<std::int64_t>(size()) * 4));
-  running_ = 0;
-  generation_.fetch_add(1, std::memory_order_release);
-  lock.unlock();
+  next_.store(begin);
+  {
+    std::lock_guard lock(mutex_);
+    generation_.fetch_add(1);  // even: ready
+  }
   wake_.notify_all();
-  for (;;) {  // the calling thread works too
-    lock.lock();
-    const std::int64_t a = next_, b = std::min(end_, a + chunk_);
-    next_ = b;
-    lock.unlock();
-    if (a >= b) break;
+  // The calling thread works too, then waits only for chunks that workers are running: a worker
+  // the scheduler has not run yet finds every chunk taken when it wakes, and nobody waits for it.
+  for (std::int64_t a = next_.fetch_add(chunk_); a < end; a = next_.fetch_add(chunk_)) {
+    const std::int64_t b = std::min(end, a + chunk_);
     for (std::int64_t i = a; i < b; ++i) fn(i);
   }
-  // Every chunk is claimed; wait only for chunks still running. A worker the scheduler has not
-  // run yet (the cores busy elsewhere, e.g. with SLAM's mapping thread) finds no work when it
-  // wakes and is not waited for.
-  lock.lock();
-  done_.wait(lock, [this] { return running_ == 0; });
-  job_ = nullptr;
+  wait_for_workers_outside();
 }
 
 void ThreadPool::worker_loop() {
   std::uint64_t seen = 0;
-  std::unique_lock lock(mutex_);
   for (;;) {
-    if (generation_.load(std::memory_order_relaxed) == seen && !stop_) {
-      // A frame calls parallel_for dozens of times back to back: spin a little before sleeping,
-      // so that the next call finds this worker awake (waking a sleeping thread costs tens of
-      // microseconds, more on a virtual machine whose idle core has halted).
-      lock.unlock();
-      const auto spin_until = std::chrono::steady_clock::now() + kSpinBeforeSleep;
-      for (int k = 1; generation_.load(std::memory_order_acquire) == seen && !stop_flag_.load(std::memory_order_relaxed);
-           ++k) {
-        if (k % 64 == 0 && std::chrono::steady_clock::now() >= spin_until) break;
-        std::this_thread::yield();
-      }
-      lock.lock();
-      wake_.wait(lock, [&] { return stop_ || generation_.load(std::memory_order_relaxed) != seen; });
+    // A frame calls parallel_for dozens of times back to back: spin a little before sleeping, so
+    // that the next call finds this worker awake (waking a sleeping thread costs tens of
+    // microseconds, more on a virtual machine whose idle core has halted).
+    const auto ready = [&] {
+      const std::uint64_t g = generation_.load();
+      return g != seen && g % 2 == 0;
+    };
+    const auto spin_until = std::chrono::steady_clock::now() + kSpinBeforeSleep;
+    for (int k = 1; !ready() && !stop_.load(std::memory_order_relaxed); ++k) {
+      if (k % 64 == 0 && std::chrono::steady_clock::now() >= spin_until) break;
+      std::this_thread::yield();
     }
-    if (stop_) return;
-    seen = generation_.load(std::memory_order_relaxed);
-    for (;;) {
-      const std::int64_t a = next_, b = std::min(end_, a + chunk_);
-      if (a >= b) break;
-      next_ = b;
-      ++running_;
+    if (!ready()) {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return stop_.load() || ready(); });
+    }
+    if (stop_.load()) return;
+    const std::uint64_t g = generation_.load();
+    seen = g;
+    if (g % 2 != 0) continue;
+    inside_.fetch_add(1);
+    if (generation_.load() == g) {  // still this job: its fields are stable while we are inside
       const auto* fn = job_;
-      lock.unlock();
-      for (std::int64_t i = a; i < b; ++i) (*fn)(i);
-      lock.lock();
-      if (--running_ == 0 && next_ >= end_) done_.notify_all();
+      const std::int64_t end = end_, chunk = chunk_;
+      for (std::int64_t a = next_.fetch_add(chunk); a < end; a = next_.fetch_add(chunk)) {
+        const std::int64_t b = std::min(end, a + chunk);
+        for (std::int64_t i = a; i < b; ++i) (*fn)(i);
+      }
     }
+    inside_.fetch_sub(1);
   }
 }
 

@@ -30,17 +30,25 @@ class ThreadPool {
 
  private:
   void worker_loop();
+  /// Waits (spinning, then yielding) until no worker is inside a job.
+  void wait_for_workers_outside() const;
 
   std::vector<std::thread> workers_;
-  std::mutex mutex_;
-  std::condition_variable wake_, done_;
+  // Job hand-off without a lock per chunk. The generation is odd while the caller sets a job up
+  // and even once it is ready; a worker enters a job by incrementing inside_ and re-checking the
+  // generation (both sequentially consistent, so either the worker sees the set-up start and
+  // leaves, or the caller sees the worker inside and waits), then claims chunks with fetch_add.
+  // The job fields change only while the generation is odd and no worker is inside.
+  std::atomic<std::uint64_t> generation_{0};
+  std::atomic<int> inside_{0};
+  std::atomic<std::int64_t> next_{0};
   const std::function<void(std::int64_t)>* job_ = nullptr;
-  std::int64_t next_ = 0, end_ = 0, chunk_ = 1;
-  int running_ = 0;  // chunks being run by workers
-  std::atomic<std::uint64_t> generation_{0};  // written under mutex_; workers spin on it
-  std::atomic<bool> stop_flag_{false};         // stop_, readable while spinning
+  std::int64_t end_ = 0, chunk_ = 1;
+  std::atomic<bool> stop_{false};
+  // Sleeping workers wait here; the caller takes the mutex to publish a job, so none misses it.
+  std::mutex mutex_;
+  std::condition_variable wake_;
   static constexpr std::chrono::microseconds kSpinBeforeSleep{200};
-  bool stop_ = false;
 };
 
 }  // namespace porta::cpu
