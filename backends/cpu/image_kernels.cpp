@@ -30,7 +30,7 @@ T* scratch(int count) {
 // ---- Pyramid row (§3.2) --------------------------------------------------------------------------
 
 /// One output row of a pyramid level from its two source rows `top` and `bottom` (of `src_width`
-/// pixels) and the row weights wy0 + wy1 = 2048; `blend` has room for `src_width` values.
+/// pixels) and the row weights wy0 + wy1 = 2048; `blend` has room for `src_width` + 1 values.
 ///
 /// The contract's sum wy0 * (wx0 * a + wx1 * b) + wy1 * (wx0 * c + wx1 * d) (a, b from `top` at
 /// x0, x1; c, d from `bottom`) equals wx0 * (wy0 * a + wy1 * c) + wx1 * (wy0 * b + wy1 * d) in exact
