@@ -60,6 +60,12 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   const int max_disparity = static_cast<int>(std::ceil(settings.camera.bf() / 0.5));
   settings.frontend.stereo_max_disparity =
       std::clamp(max_disparity, settings.frontend.stereo_min_disparity + 1, std::min(settings.camera.width, 4096));
+  // Paced like a camera, tracking comes first and mapping uses the time between frames. As fast
+  // as possible there is no time between frames: mapping then shares the cores equally, or local
+  // bundle adjustment would hardly ever run (docs/USER_GUIDE.md, "Scheduling").
+  const bool paced = options.rate > 0.0;
+  settings.mapping_thread_idle_priority = paced;
+  settings.mapping_yields_to_tracking = paced;
   settings.validate();
   return settings;
 }
