@@ -25,16 +25,12 @@
 
 namespace porta::cpu::simd {
 
-/// 32 lanes of u8, 16 of u16/i16, 8 of u32/i32: one AVX2 register, two SSE2 or NEON registers.
+/// 32 lanes of u8/i8, 16 of u16: one AVX2 register, two SSE2 or NEON registers.
 using u8x32 = std::uint8_t __attribute__((vector_size(32)));
 using i8x32 = std::int8_t __attribute__((vector_size(32)));
 using u16x16 = std::uint16_t __attribute__((vector_size(32)));
-using i16x16 = std::int16_t __attribute__((vector_size(32)));
-using u32x8 = std::uint32_t __attribute__((vector_size(32)));
-using i32x8 = std::int32_t __attribute__((vector_size(32)));
-/// Half-width companions for widening (u8x16 -> u16x16, u16x8 -> u32x8).
+/// Half-width companion for widening (u8x16 -> u16x16).
 using u8x16 = std::uint8_t __attribute__((vector_size(16)));
-using u16x8 = std::uint16_t __attribute__((vector_size(16)));
 
 template <typename V, typename T>
 [[gnu::always_inline]] inline V load(const T* p) {

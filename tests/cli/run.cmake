@@ -15,6 +15,8 @@ porta_cli_test(run_bad_mode EXIT 1 STDERR "--mode must be realtime or determinis
                ARGS run --dataset kitti x --mode fast)
 porta_cli_test(run_unknown_option EXIT 1 STDERR "unknown option '--speed'" ARGS run --speed 2)
 porta_cli_test(run_bad_rate EXIT 1 STDERR "--rate must be a finite number >= 0" ARGS run --dataset kitti x --rate -1)
+porta_cli_test(run_rate_not_a_number EXIT 1 STDERR "option --rate expects a number, got 'abc'" ARGS run --dataset kitti x --rate abc)
+porta_cli_test(run_rate_without_value EXIT 1 STDERR "option --rate needs a value" ARGS run --dataset kitti x --rate)
 porta_cli_test(run_unavailable_backend EXIT 1 STDERR "portaslam run: .*(nosuch|unknown)"
                ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --backend nosuch)
 porta_cli_test(run_missing_settings EXIT 1 STDERR "no_such_settings.yaml"

@@ -15,6 +15,7 @@
 #include "cpu/cpu_backend.hpp"
 #include "porta/tables.hpp"
 #include "support/test_images.hpp"
+#include "unit/contract_pyramid.hpp"
 #include "unit/kernel_test_buffers.hpp"
 
 namespace porta {
@@ -26,30 +27,6 @@ using Taps = std::array<std::int32_t, 7>;
 std::string size_name(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
 
 // ---- Pyramid (§3.2) ------------------------------------------------------------------------------
-
-/// Level n from level n - 1 as the contract writes it: the four taps at (x0 | x0 + 1 clamped,
-/// y0 | y0 + 1 clamped) of the host tables, out = (sum wy * wx * p + 2^21) >> 22.
-std::vector<Image> scalar_pyramid(const Image& level0, const Sizes& sizes) {
-  const ResizeTables tables = build_resize_tables(sizes);
-  std::vector<Image> levels{Image::copy_of(level0.view())};
-  for (std::size_t n = 1; n < sizes.size(); ++n) {
-    const Image& above = levels.back();
-    const ResizeAxis& cols = tables.cols[n - 1];
-    const ResizeAxis& rows = tables.rows[n - 1];
-    Image level(sizes[n].first, sizes[n].second);
-    for (int i = 0; i < level.height(); ++i)
-      for (int j = 0; j < level.width(); ++j) {
-        const int y0 = rows.src0[i], y1 = std::min(y0 + 1, above.height() - 1);
-        const int x0 = cols.src0[j], x1 = std::min(x0 + 1, above.width() - 1);
-        const std::int64_t wy1 = rows.w1[i], wy0 = 2048 - wy1, wx1 = cols.w1[j], wx0 = 2048 - wx1;
-        const std::int64_t sum = wy0 * wx0 * above.at(x0, y0) + wy0 * wx1 * above.at(x1, y0) +
-                                 wy1 * wx0 * above.at(x0, y1) + wy1 * wx1 * above.at(x1, y1);
-        level.at(j, i) = static_cast<std::uint8_t>((sum + (1 << 21)) >> 22);
-      }
-    levels.push_back(std::move(level));
-  }
-  return levels;
-}
 
 TEST(CpuFastPath, PyramidMatchesTheScalarContractOnOddSizesAndAllLevelCounts) {
   cpu::CpuBackend backend(2);
@@ -67,7 +44,7 @@ TEST(CpuFastPath, PyramidMatchesTheScalarContractOnOddSizesAndAllLevelCounts) {
         const auto table = test::upload_vector(backend, tables.packed);
         backend.build_pyramid(*pyramid, layout, *table, tables.level_offset);
         const auto actual = test::download_levels(backend, *pyramid, layout);
-        const auto expected = scalar_pyramid(image, sizes);
+        const auto expected = test::contract_pyramid(image, sizes);
         for (std::size_t n = 0; n < sizes.size(); ++n)
           test::expect_same_image(actual[n], expected[n],
                                   size_name(width, height) + " scale " + std::to_string(scale) + ", " +
@@ -192,15 +169,7 @@ int scalar_orientation_bin(const Image& level, int cx, int cy, int bins) {
   return 0;
 }
 
-Keypoint keypoint_at(int x, int y, int level, int angle_bin = 0) {
-  Keypoint k;
-  k.x = static_cast<std::uint16_t>(x);
-  k.y = static_cast<std::uint16_t>(y);
-  k.response = 1;
-  k.level = static_cast<std::uint8_t>(level);
-  k.angle_bin = static_cast<std::uint8_t>(angle_bin);
-  return k;
-}
+using test::keypoint_at;
 
 /// Every keypoint position at least `reach` px from the border of each level.
 std::vector<Keypoint> all_keypoints(const std::vector<Image>& levels, int reach) {

@@ -13,6 +13,7 @@
 #include "cpu/cpu_backend.hpp"
 #include "porta/tables.hpp"
 #include "support/test_images.hpp"
+#include "unit/kernel_test_buffers.hpp"
 
 namespace porta {
 namespace {
@@ -99,15 +100,7 @@ std::vector<Descriptor> run_describe(CpuBackend& backend, const DevicePyramid& b
   return out;
 }
 
-Keypoint keypoint_at(int x, int y, int level = 0, int angle_bin = 0) {
-  Keypoint k;
-  k.x = static_cast<std::uint16_t>(x);
-  k.y = static_cast<std::uint16_t>(y);
-  k.response = 1000;
-  k.level = static_cast<std::uint8_t>(level);
-  k.angle_bin = static_cast<std::uint8_t>(angle_bin);
-  return k;
-}
+using test::keypoint_at;
 
 /// An image whose pixel (x, y) is `value(x, y)`.
 template <typename F>

@@ -17,6 +17,8 @@
 #include "cpu/cpu_backend.hpp"
 #include "porta/tables.hpp"
 #include "support/test_images.hpp"
+#include "unit/detect_runners.hpp"
+#include "unit/kernel_test_buffers.hpp"
 
 namespace porta {
 namespace {
@@ -24,48 +26,13 @@ namespace {
 using cpu::CpuBackend;
 using Responses = std::vector<std::vector<std::uint16_t>>;  // per level, row-major width x height
 
-std::vector<std::pair<int, int>> sizes_of(const std::vector<Image>& levels) {
-  std::vector<std::pair<int, int>> sizes;
-  for (const Image& img : levels) sizes.emplace_back(img.width(), img.height());
-  return sizes;
-}
-
-template <typename T>
-std::unique_ptr<Buffer> upload_vector(CpuBackend& backend, const std::vector<T>& v) {
-  auto b = backend.allocate(std::max<std::size_t>(1, v.size() * sizeof(T)));
-  if (!v.empty()) backend.upload(*b, 0, v.data(), v.size() * sizeof(T));
-  return b;
-}
+using test::upload_vector;
 
 /// Runs fast_crf on level images given one by one (no resampling involved), over a response
 /// buffer full of stale 0xA5A5 values, and returns the responses without padding.
 Responses run_fast(CpuBackend& backend, const std::vector<Image>& levels, int min_arc, int max_arc,
                    FastParams params) {
-  const auto sizes = sizes_of(levels);
-  const PyramidLayout layout = PyramidLayout::make(sizes, 1);
-  const PyramidLayout response_layout = PyramidLayout::make(sizes, 2);
-  auto pyramid = backend.allocate(static_cast<std::size_t>(layout.total_bytes));
-  for (int n = 0; n < layout.num_levels(); ++n)
-    for (int y = 0; y < levels[n].height(); ++y)
-      backend.upload(
-          *pyramid,
-          static_cast<std::size_t>(layout.levels[n].offset_bytes + std::int64_t{y} * layout.levels[n].pitch),
-          levels[n].row(y), static_cast<std::size_t>(levels[n].width()));
-  auto lut = upload_vector(backend, build_fast_lut(min_arc, max_arc));
-  auto responses = backend.allocate(static_cast<std::size_t>(response_layout.total_bytes));
-  backend.fill(*responses, 0, responses->size_bytes(), 0xA5);
-  backend.fast_crf(*pyramid, layout, *lut, *responses, response_layout, params);
-
-  Responses out;
-  for (const Plane& p : response_layout.levels) {
-    std::vector<std::uint16_t> plane(static_cast<std::size_t>(p.width) * p.height);
-    for (int y = 0; y < p.height; ++y)
-      backend.download(*responses, static_cast<std::size_t>(p.offset_bytes + std::int64_t{y} * p.pitch * 2),
-                       plane.data() + static_cast<std::size_t>(y) * p.width,
-                       static_cast<std::size_t>(p.width) * 2);
-    out.push_back(std::move(plane));
-  }
-  return out;
+  return test::run_fast_crf(backend, levels, build_fast_lut(min_arc, max_arc), params);
 }
 
 Responses run_fast(CpuBackend& backend, const Image& image, int min_arc, int max_arc, FastParams params) {
@@ -266,22 +233,7 @@ Keypoint kp(int x, int y, int response, int level) {
 /// a cell array full of 0xFF bytes and returns it.
 std::vector<Keypoint> run_cull(CpuBackend& backend, const std::vector<std::pair<int, int>>& sizes,
                                const Responses& planes, const CellLayout& cells) {
-  const PyramidLayout layout = PyramidLayout::make(sizes, 2);
-  auto responses = backend.allocate(static_cast<std::size_t>(layout.total_bytes));
-  backend.fill(*responses, 0, responses->size_bytes(), 0xFF);
-  for (int n = 0; n < layout.num_levels(); ++n) {
-    const Plane& p = layout.levels[n];
-    for (int y = 0; y < p.height; ++y)
-      backend.upload(*responses, static_cast<std::size_t>(p.offset_bytes + std::int64_t{y} * p.pitch * 2),
-                     planes[n].data() + static_cast<std::size_t>(y) * p.width,
-                     static_cast<std::size_t>(p.width) * 2);
-  }
-  auto out = backend.allocate(static_cast<std::size_t>(cells.total_cells) * sizeof(Keypoint));
-  backend.fill(*out, 0, out->size_bytes(), 0xFF);
-  backend.cull_cells(*responses, layout, cells, *out);
-  std::vector<Keypoint> result(static_cast<std::size_t>(cells.total_cells));
-  backend.download(*out, 0, result.data(), out->size_bytes());
-  return result;
+  return test::run_cull_cells(backend, sizes, planes, cells);
 }
 
 void set(std::vector<std::uint16_t>& plane, int width, int x, int y, int value) {

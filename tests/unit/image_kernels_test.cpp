@@ -13,6 +13,8 @@
 #include "cpu/cpu_backend.hpp"
 #include "porta/tables.hpp"
 #include "support/test_images.hpp"
+#include "unit/contract_pyramid.hpp"
+#include "unit/kernel_test_buffers.hpp"
 
 namespace porta {
 namespace {
@@ -30,20 +32,6 @@ std::unique_ptr<Buffer> upload_level0(Backend& backend, const PyramidLayout& lay
         *buffer, static_cast<std::size_t>(level0.offset_bytes + static_cast<std::int64_t>(y) * level0.pitch),
         image.row(y), static_cast<std::size_t>(image.width()));
   return buffer;
-}
-
-/// Each level of a pyramid buffer as a packed image (pixels inside the level's width only).
-std::vector<Image> download_levels(Backend& backend, const Buffer& buffer, const PyramidLayout& layout) {
-  std::vector<Image> levels;
-  for (const Plane& p : layout.levels) {
-    Image img(p.width, p.height);
-    for (int y = 0; y < p.height; ++y)
-      backend.download(buffer,
-                       static_cast<std::size_t>(p.offset_bytes + static_cast<std::int64_t>(y) * p.pitch),
-                       img.row(y), static_cast<std::size_t>(p.width));
-    levels.push_back(std::move(img));
-  }
-  return levels;
 }
 
 std::vector<std::uint8_t> download_all(Backend& backend, const Buffer& buffer) {
@@ -83,7 +71,7 @@ Image run_rectify(cpu::CpuBackend& backend, const Image& src, const std::vector<
 
   PyramidLayout one;
   one.levels = {dst_plane};
-  return download_levels(backend, *dst_buffer, one)[0];
+  return test::download_levels(backend, *dst_buffer, one)[0];
 }
 
 /// Map whose destination pixel (x, y) samples source (x + dx_q5 / 32, y + dy_q5 / 32).
@@ -200,33 +188,7 @@ std::vector<Image> run_pyramid(cpu::CpuBackend& backend, const Image& image, con
   if (!tables.packed.empty())
     backend.upload(*table, 0, tables.packed.data(), tables.packed.size() * sizeof(std::int32_t));
   backend.build_pyramid(*pyramid, layout, *table, tables.level_offset);
-  return download_levels(backend, *pyramid, layout);
-}
-
-/// Naive cascade from the contract, using the unpacked per-axis tables and 64-bit sums over the
-/// four taps.
-std::vector<Image> naive_pyramid(const Image& image, const Sizes& sizes) {
-  const ResizeTables tables = build_resize_tables(sizes);
-  std::vector<Image> levels{Image::copy_of(image.view())};
-  for (std::size_t n = 1; n < sizes.size(); ++n) {
-    const Image& above = levels.back();
-    const ResizeAxis& cols = tables.cols[n - 1];
-    const ResizeAxis& rows = tables.rows[n - 1];
-    Image level(sizes[n].first, sizes[n].second);
-    for (int i = 0; i < level.height(); ++i)
-      for (int j = 0; j < level.width(); ++j) {
-        const int ys[2] = {rows.src0[i], std::min(rows.src0[i] + 1, above.height() - 1)};
-        const int xs[2] = {cols.src0[j], std::min(cols.src0[j] + 1, above.width() - 1)};
-        const std::int64_t wy[2] = {2048 - rows.w1[i], rows.w1[i]};
-        const std::int64_t wx[2] = {2048 - cols.w1[j], cols.w1[j]};
-        std::int64_t sum = 1 << 21;
-        for (int a = 0; a < 2; ++a)
-          for (int b = 0; b < 2; ++b) sum += wy[a] * wx[b] * above.at(xs[b], ys[a]);
-        level.at(j, i) = static_cast<std::uint8_t>(sum / (1 << 22));
-      }
-    levels.push_back(std::move(level));
-  }
-  return levels;
+  return test::download_levels(backend, *pyramid, layout);
 }
 
 // Weights of each axis sum to 2048, so a flat v gives (v * 2^22 + 2^21) >> 22 = v everywhere.
@@ -289,7 +251,7 @@ TEST(Pyramid, LevelsMatchANaiveCascadeOnRandomImages) {
     const Sizes sizes = pyramid_level_sizes(c.width, c.height, c.levels, c.scale);
     const Image image = test::random_image(c.width, c.height, 1000 + static_cast<std::uint64_t>(c.width));
     const auto actual = run_pyramid(backend, image, sizes, c.level0_pitch);
-    const auto expected = naive_pyramid(image, sizes);
+    const auto expected = test::contract_pyramid(image, sizes);
     ASSERT_EQ(actual.size(), expected.size());
     for (std::size_t n = 0; n < actual.size(); ++n)
       expect_same_image(
@@ -315,7 +277,7 @@ std::vector<Image> run_blur(cpu::CpuBackend& backend, const std::vector<Image>& 
                      images[n].row(y), static_cast<std::size_t>(images[n].width()));
   auto blurred = backend.allocate(static_cast<std::size_t>(layout.total_bytes));
   backend.blur(*pyramid, layout, *blurred, build_blur_taps());
-  return download_levels(backend, *blurred, layout);
+  return test::download_levels(backend, *blurred, layout);
 }
 
 /// Mirror without the repeat (reflect-101) by stepping, written independently of reflect101().

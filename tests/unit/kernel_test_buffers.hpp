@@ -55,6 +55,17 @@ std::unique_ptr<Buffer> upload_vector(Backend& backend, const std::vector<T>& v)
   return b;
 }
 
+/// A keypoint at (x, y) of `level` with orientation bin `angle_bin` (response 1000: any non-zero).
+inline Keypoint keypoint_at(int x, int y, int level = 0, int angle_bin = 0) {
+  Keypoint k;
+  k.x = static_cast<std::uint16_t>(x);
+  k.y = static_cast<std::uint16_t>(y);
+  k.response = 1000;
+  k.level = static_cast<std::uint8_t>(level);
+  k.angle_bin = static_cast<std::uint8_t>(angle_bin);
+  return k;
+}
+
 /// A keypoint list holding `keypoints` (count at byte 0 of its own buffer).
 struct KeypointList {
   std::unique_ptr<Buffer> items;
