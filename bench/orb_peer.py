@@ -540,7 +540,9 @@ def ratios(ours, peer_rows):
         if peer is None or "error" in row or row["backend"] in ("opencv-orb", PEER_NAME):
             continue
         net = peer["median_us"] - peer.get("python_overhead_us", 0.0)
-        out.append({"backend": row["backend"], "resolution": row["resolution"], "levels": row["levels"],
+        in_flight = row.get("in_flight", 1)  # > 1: our throughput with that many frames in flight
+        label = row["backend"] if in_flight == 1 else f"{row['backend']}/{in_flight}"
+        out.append({"backend": label, "in_flight": in_flight, "resolution": row["resolution"], "levels": row["levels"],
                     "mode": row["mode"], "median_us": row["median_us"], "peer_median_us": peer["median_us"],
                     "speedup_vs_peer": peer["median_us"] / row["median_us"],
                     "peer_median_us_without_python": net, "speedup_vs_peer_without_python": net / row["median_us"]})

@@ -55,13 +55,15 @@ struct FrameResult {
 };
 
 struct Row {
-  Row(std::string backend_name, Resolution cell_size, int cell_levels, BenchMode cell_mode)
-      : backend(std::move(backend_name)), size(cell_size), levels(cell_levels), mode(cell_mode) {}
+  Row(std::string backend_name, Resolution cell_size, int cell_levels, BenchMode cell_mode, int frames_in_flight = 1)
+      : backend(std::move(backend_name)), size(cell_size), levels(cell_levels), mode(cell_mode),
+        in_flight(frames_in_flight) {}
 
   std::string backend;  // a backend's name, or kPeerName
   Resolution size;
   int levels = 0;
   BenchMode mode = BenchMode::detect;
+  int in_flight = 1;       // > 1: throughput with that many frames in flight
   std::vector<double> us;  // per timed frame, sorted
   double mean_keypoints = 0.0;
   double mean_matches = 0.0;
@@ -77,6 +79,8 @@ struct Row {
     return us[lo] + (rank - static_cast<double>(lo)) * (us[hi] - us[lo]);
   }
   double median() const { return percentile(50); }
+  /// "cuda", or "cuda/4" for a row with 4 frames in flight.
+  std::string label() const { return in_flight > 1 ? backend + "/" + std::to_string(in_flight) : backend; }
   double frames_per_s() const { return 1e6 / median(); }
 };
 
@@ -95,30 +99,60 @@ void measure(Row& row, int warmup, int frames, TimedCall&& call) {
   row.mean_matches = matches / frames;
 }
 
+FrameResult features_of(const Features& f) {
+  FrameResult r;
+  r.keypoints = static_cast<double>(f.keypoints.size());
+  return r;
+}
+FrameResult features_of(const StereoFeatures& f) {
+  FrameResult r;
+  r.keypoints = static_cast<double>(f.left.keypoints.size() + f.right.keypoints.size()) / 2.0;
+  r.matches = f.num_matches();
+  return r;
+}
+
 void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOptions& options) {
   FrontendSettings settings;
   settings.levels = row.levels;
   FrontendOptions frontend_options;
   frontend_options.describe = row.mode != BenchMode::detect;
+  frontend_options.in_flight = row.in_flight;
   Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
-  measure(row, options.warmup, options.frames, [&](std::size_t frame) {
+  const bool stereo = row.mode == BenchMode::stereo;
+  auto submit = [&](std::size_t frame) {
     const Image& left = in.left[frame % in.left.size()];
-    FrameResult r;
-    if (row.mode == BenchMode::stereo) {
-      const Image& right = in.right[frame % in.right.size()];
+    if (stereo)
+      frontend.submit_stereo(left.view(), in.right[frame % in.right.size()].view());
+    else
+      frontend.submit(left.view());
+  };
+  auto collect = [&] { return stereo ? features_of(frontend.collect_stereo()) : features_of(frontend.collect()); };
+
+  if (row.in_flight == 1) {  // latency: one call, submit to results
+    measure(row, options.warmup, options.frames, [&](std::size_t frame) {
       const Clock::time_point t0 = Clock::now();
-      const StereoFeatures f = frontend.detect_stereo(left.view(), right.view());
+      submit(frame);
+      FrameResult r = collect();
       r.us = elapsed_us(t0);
-      r.keypoints = static_cast<double>(f.left.keypoints.size() + f.right.keypoints.size()) / 2.0;
-      r.matches = f.num_matches();
-    } else {
-      const Clock::time_point t0 = Clock::now();
-      const Features f = frontend.detect(left.view());
-      r.us = elapsed_us(t0);
-      r.keypoints = static_cast<double>(f.keypoints.size());
-    }
+      return r;
+    });
+    return;
+  }
+  // Throughput: N frames always in flight; a frame's time is the interval from the previous frame's
+  // results to its own, in which the host also submits one frame. Frames past the timed ones keep
+  // the pipeline full to the end and are collected untimed.
+  std::size_t submitted = 0;
+  while (static_cast<int>(submitted) < row.in_flight) submit(submitted++);
+  Clock::time_point last = Clock::now();
+  measure(row, options.warmup, options.frames, [&](std::size_t) {
+    FrameResult r = collect();
+    submit(submitted++);
+    const Clock::time_point now = Clock::now();
+    r.us = std::chrono::duration<double, std::micro>(now - last).count();
+    last = now;
     return r;
   });
+  while (frontend.pending() > 0) collect();
 }
 
 #if PORTA_APPS_HAVE_OPENCV
@@ -246,8 +280,10 @@ struct Report {
 };
 
 const char* const kTimingNote =
-    "wall time of one Frontend::detect / detect_stereo call: upload, every kernel, synchronisation, "
-    "download of keypoints, descriptors and matches";
+    "wall time of one Frontend submit + collect (detect / detect_stereo): upload, every kernel, "
+    "synchronisation, download of keypoints, descriptors and matches; rows BACKEND/N: throughput with N "
+    "frames in flight, the interval between consecutive frames' results (each still uploaded, "
+    "processed and downloaded)";
 const char* const kPeerNote =
     "cv::ORB on the CPU, nfeatures = our mean keypoints per image in the same cell, scale 1.2, FAST "
     "threshold 20, Harris score, patch 31; stereo = detectAndCompute on both images + "
@@ -281,14 +317,14 @@ void print_table(const Report& r) {
               "mode", "median_us", "p10_us", "p90_us", "frames/s", "keypoints", "matches", "speedup");
   for (const Row& row : r.rows) {
     if (!row.error.empty()) {
-      std::printf("%-10s %-10s %6d  %-7s %s\n", row.backend.c_str(), row.size.text().c_str(), row.levels,
+      std::printf("%-10s %-10s %6d  %-7s %s\n", row.label().c_str(), row.size.text().c_str(), row.levels,
                   mode_name(row.mode), row.error.c_str());
       continue;
     }
     char matches[16] = "-", speedup[16] = "-";
     if (row.mode == BenchMode::stereo) std::snprintf(matches, sizeof matches, "%.0f", row.mean_matches);
     if (row.speedup > 0) std::snprintf(speedup, sizeof speedup, "%.2fx", row.speedup);
-    std::printf("%-10s %-10s %6d  %-7s %10.0f %10.0f %10.0f %9.1f %9.0f %8s %8s\n", row.backend.c_str(),
+    std::printf("%-10s %-10s %6d  %-7s %10.0f %10.0f %10.0f %9.1f %9.0f %8s %8s\n", row.label().c_str(),
                 row.size.text().c_str(), row.levels, mode_name(row.mode), row.median(), row.percentile(10),
                 row.percentile(90), row.frames_per_s(), row.mean_keypoints, matches, speedup);
   }
@@ -339,7 +375,12 @@ void write_json(std::ostream& out, const Report& r) {
   else
     out << "null";
   out << ",\n  \"settings\": {\"frames\": " << o.frames << ", \"warmup\": " << o.warmup
-      << ", \"threads\": " << o.threads << ", \"device\": " << json_string(o.device)
+      << ", \"threads\": " << o.threads << ", \"device\": " << json_string(o.device) << ", \"in_flight\": ["
+      << [&] {
+           std::string list;
+           for (int n : o.in_flight) list += (list.empty() ? "" : ", ") + std::to_string(n);
+           return list;
+         }() << "]"
       << ", \"timing\": " << json_string(kTimingNote)
       << ",\n    \"frontend\": {\"scale_factor\": " << s.scale_factor
       << ", \"fast_threshold\": " << s.fast_threshold << ", \"min_arc\": " << s.min_arc
@@ -358,6 +399,7 @@ void write_json(std::ostream& out, const Report& r) {
     out << (i ? "," : "") << "\n    {\"backend\": " << json_string(row.backend) << ", \"resolution\": \""
         << row.size.text() << "\", \"width\": " << row.size.width << ", \"height\": " << row.size.height
         << ", \"levels\": " << row.levels << ", \"mode\": \"" << mode_name(row.mode) << "\"";
+    if (row.backend != kPeerName) out << ", \"in_flight\": " << row.in_flight;
     if (!row.error.empty()) {
       out << ", \"error\": " << json_string(row.error) << "}";
       continue;
@@ -403,7 +445,7 @@ void check_json_path(const std::string& path) {
 }
 
 void progress(const Row& row, std::size_t done, std::size_t total, double seconds) {
-  std::fprintf(stderr, "[%zu/%zu] %-10s %-9s levels %d %-7s ", done, total, row.backend.c_str(),
+  std::fprintf(stderr, "[%zu/%zu] %-10s %-9s levels %d %-7s ", done, total, row.label().c_str(),
                row.size.text().c_str(), row.levels, mode_name(row.mode));
   if (row.error.empty())
     std::fprintf(stderr, "median %9.0f us  %8.1f frames/s  (%.1f s)\n", row.median(), row.frames_per_s(),
@@ -418,15 +460,18 @@ void run_cell(Report& report, const std::vector<std::unique_ptr<Backend>>& backe
               const BenchFrames& frames, const Row& cell, std::size_t total) {
   const std::size_t first_row = report.rows.size();
   for (const auto& backend : backends) {
-    Row row(backend->name(), cell.size, cell.levels, cell.mode);
-    const Clock::time_point t0 = Clock::now();
-    try {
-      time_ours(row, *backend, frames, report.options);
-    } catch (const std::exception& e) {
-      row.error = std::string("failed: ") + e.what();
+    for (const int in_flight : report.options.in_flight) {
+      if (in_flight > 1 && backend->queue_count() < 2) continue;  // runs frames in order: as in_flight 1
+      Row row(backend->name(), cell.size, cell.levels, cell.mode, in_flight);
+      const Clock::time_point t0 = Clock::now();
+      try {
+        time_ours(row, *backend, frames, report.options);
+      } catch (const std::exception& e) {
+        row.error = std::string("failed: ") + e.what();
+      }
+      report.rows.push_back(std::move(row));
+      progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
     }
-    report.rows.push_back(std::move(row));
-    progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
   }
   if (!report.options.peer || !kPeerBuilt) return;
   Row peer(kPeerName, cell.size, cell.levels, cell.mode);
@@ -457,8 +502,10 @@ int run(const BenchOptions& options) {
   report.data_folder = data.path.empty() ? "none found" : data.path.string() + " (" + data.origin + ")";
 
   const Clock::time_point start = Clock::now();
-  const std::size_t total = options.resolutions.size() * options.levels.size() * options.modes.size() *
-                            (backends.size() + (options.peer && kPeerBuilt ? 1 : 0));
+  std::size_t rows_per_cell = options.peer && kPeerBuilt ? 1 : 0;
+  for (const auto& b : backends)
+    for (const int n : options.in_flight) rows_per_cell += n == 1 || b->queue_count() > 1 ? 1 : 0;
+  const std::size_t total = options.resolutions.size() * options.levels.size() * options.modes.size() * rows_per_cell;
   if (options.peer && !kPeerBuilt)
     std::fprintf(stderr, "portaslam bench: %s: no %s rows; %s\n", kPeerNotBuilt, kPeerName, kPythonPeerHint);
   for (const Resolution& size : options.resolutions) {

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "cli_args.hpp"
+#include "porta/frontend.hpp"
 #include "porta/settings.hpp"
 
 namespace porta::app {
@@ -78,6 +79,15 @@ void apply_value(BenchOptions& o, const std::string& option, const std::string& 
   } else if (option == "--modes") {
     o.modes.clear();
     for (const auto& item : split_list(option, value)) o.modes.push_back(parse_mode(item));
+  } else if (option == "--in-flight") {
+    o.in_flight.clear();
+    for (const auto& item : split_list(option, value)) {
+      const int n = parse_int(option, item);
+      if (n < 1 || n > FrontendOptions::kMaxInFlight)
+        throw CliError("option --in-flight expects frame counts in [1, " + std::to_string(FrontendOptions::kMaxInFlight) +
+                       "], got " + item);
+      o.in_flight.push_back(n);
+    }
   } else if (option == "--frames") {
     o.frames = parse_count(option, value, 1);
   } else if (option == "--warmup") {
@@ -98,8 +108,9 @@ void apply_value(BenchOptions& o, const std::string& option, const std::string& 
 }
 
 bool takes_value(const std::string& option) {
-  static const char* const names[] = {"--backend", "--resolutions", "--levels", "--modes", "--frames",
-                                      "--warmup",  "--threads",     "--device", "--json",  "--data"};
+  static const char* const names[] = {"--backend", "--resolutions", "--levels", "--modes",
+                                      "--frames",  "--warmup",      "--threads", "--device",
+                                      "--json",    "--data",        "--in-flight"};
   return std::find(std::begin(names), std::end(names), option) != std::end(names);
 }
 
@@ -157,6 +168,10 @@ std::string bench_usage() {
          "  --levels LIST        pyramid levels, each in [1, 12] (default 1,4,8)\n"
          "  --modes LIST         detect, extract (detect + describe), stereo (both images + matching)\n"
          "                       (default detect,extract,stereo)\n"
+         "  --in-flight LIST     frames kept in flight, each in [1, 16] (default 1): with N > 1 a row\n"
+         "                       times throughput, the interval between frames completing while N\n"
+         "                       are submitted and not yet collected (label BACKEND/N); only backends\n"
+         "                       with several queues (cuda) get such rows\n"
          "  --frames N           timed frames per cell, [1, 1000000] (default 200)\n"
          "  --warmup W           untimed frames before them, [0, 1000000] (default 20)\n"
          "  --threads N          cpu backend worker threads, 0 = all hardware threads (default 0)\n"

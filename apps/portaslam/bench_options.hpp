@@ -24,6 +24,9 @@ struct BenchOptions {
   std::vector<Resolution> resolutions = {{320, 240}, {640, 480}, {752, 480}, {1242, 375}};
   std::vector<int> levels = {1, 4, 8};
   std::vector<BenchMode> modes = {BenchMode::detect, BenchMode::extract, BenchMode::stereo};
+  /// Frames kept in flight (FrontendOptions::in_flight); > 1 times throughput, only on backends
+  /// with several queues.
+  std::vector<int> in_flight = {1};
   int frames = 200;    ///< timed frames per cell
   int warmup = 20;     ///< untimed frames before them
   int threads = 0;     ///< cpu backend worker threads, 0 = all hardware threads

@@ -171,6 +171,17 @@ CudaBuffer::~CudaBuffer() {
   if (switch_device) static_cast<void>(cudaSetDevice(current));
 }
 
+CudaHostBuffer::~CudaHostBuffer() {
+  if (data() == nullptr) return;
+  // Copies to or from this memory may be pending or running, and cached graphs name it.
+  if (link_ && link_->backend) link_->backend->quiesce_before_free();
+  int current = -1;
+  const bool switch_device = cudaGetDevice(&current) == cudaSuccess && current != device_;
+  if (switch_device) static_cast<void>(cudaSetDevice(device_));
+  static_cast<void>(cudaFreeHost(data()));  // a destructor cannot throw; a failure here leaks at worst
+  if (switch_device) static_cast<void>(cudaSetDevice(current));
+}
+
 const char* cull_variant_name(CullVariant v) {
   switch (v) {
     case CullVariant::kMlptTewa: return "mlpt_tewa";
@@ -189,6 +200,9 @@ CullVariant parse_cull_variant(const std::string& text) {
 
 cudaError_t op_copy_h2d(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream) {
   return cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream);
+}
+cudaError_t op_copy_d2h(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream) {
+  return cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, stream);
 }
 cudaError_t op_copy_d2d(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream) {
   return cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream);
@@ -226,7 +240,7 @@ void CudaBackend::create_resources() {
   for (Queue& q : queues_) {
     check(cudaStreamCreateWithFlags(&q.stream, cudaStreamNonBlocking), "cudaStreamCreateWithFlags",
           device_.label());
-    for (cudaEvent_t* e : {&q.entry, &q.done, &q.arena_free})
+    for (cudaEvent_t* e : {&q.done, &q.arena_free})
       check(cudaEventCreateWithFlags(e, cudaEventDisableTiming), "cudaEventCreateWithFlags", device_.label());
   }
 }
@@ -243,7 +257,7 @@ void CudaBackend::release_resources() noexcept {
     q.scratch.clear();
     if (q.arena) static_cast<void>(cudaFreeHost(q.arena));
     if (q.readback) static_cast<void>(cudaFreeHost(q.readback));
-    for (cudaEvent_t e : {q.entry, q.done, q.arena_free})
+    for (cudaEvent_t e : {q.done, q.arena_free})
       if (e) static_cast<void>(cudaEventDestroy(e));
     if (q.stream) static_cast<void>(cudaStreamDestroy(q.stream));
     q = Queue{};
@@ -421,42 +435,84 @@ void CudaBackend::synchronize() {
 }
 
 void CudaBackend::use_queue(int queue) {
-  if (queue < 0 || queue >= kQueues)
-    throw BackendError("cuda: use_queue(" + std::to_string(queue) + "): queues are 0 and 1");
-  if (!streams_enabled_) return;
+  if (queue < 0 || queue >= kMaxQueues)
+    throw BackendError("cuda: use_queue(" + std::to_string(queue) + "): queues are 0 to " +
+                       std::to_string(kMaxQueues - 1));
+  if (!streams_enabled_ || queue == current_) return;
   activate();
-  // The queue being left starts running while the host records the next one.
-  flush(current_);
-  Queue& q = queues_[static_cast<std::size_t>(queue)];
-  flush(queue);
-  // Entry mark: what this queue had been given so far; the other queue waits for it when it is
-  // next selected (see the header).
-  check(cudaEventRecord(q.entry, q.stream), "cudaEventRecord(queue entry)");
-  q.entry_gen = ++entry_clock_;
-  for (int p = 0; p < kQueues; ++p) {
-    if (p == queue) continue;
-    const Queue& other = queues_[static_cast<std::size_t>(p)];
-    if (other.entry_gen > q.waited[static_cast<std::size_t>(p)]) {
-      check(cudaStreamWaitEvent(q.stream, other.entry, 0), "cudaStreamWaitEvent(queue entry)");
-      q.waited[static_cast<std::size_t>(p)] = other.entry_gen;
-      ++stats_.queue_waits;
-    }
-  }
+  flush(current_);  // the queue being left starts running while the host records the next one
   current_ = queue;
 }
 
-void CudaBackend::join_queues() {
-  if (!streams_enabled_) return;
+void CudaBackend::queue_wait(int other) {
+  if (other < 0 || other >= kMaxQueues)
+    throw BackendError("cuda: queue_wait(" + std::to_string(other) + "): queues are 0 to " +
+                       std::to_string(kMaxQueues - 1));
+  if (!streams_enabled_ || other == current_) return;
   activate();
-  flush_all();
-  Queue& q = queues_[current_];
-  for (int p = 0; p < kQueues; ++p) {
-    if (p == current_) continue;
-    Queue& other = queues_[static_cast<std::size_t>(p)];
-    check(cudaEventRecord(other.done, other.stream), "cudaEventRecord(join)");
-    check(cudaStreamWaitEvent(q.stream, other.done, 0), "cudaStreamWaitEvent(join)");
-    ++stats_.queue_waits;
-  }
+  Queue& o = queues_[static_cast<std::size_t>(other)];
+  flush(other);
+  flush(current_);  // keeps the order: the wait follows what the current queue was given
+  check(cudaEventRecord(o.done, o.stream), "cudaEventRecord(queue_wait)");
+  check(cudaStreamWaitEvent(queues_[static_cast<std::size_t>(current_)].stream, o.done, 0),
+        "cudaStreamWaitEvent(queue_wait)");
+  ++stats_.queue_waits;
+}
+
+void CudaBackend::finish_queue(int queue) {
+  if (queue < 0 || queue >= kMaxQueues)
+    throw BackendError("cuda: finish_queue(" + std::to_string(queue) + "): queues are 0 to " +
+                       std::to_string(kMaxQueues - 1));
+  throw_deferred_error();
+  activate();
+  const int q = streams_enabled_ ? queue : 0;
+  flush(q);
+  sync_queue(queues_[static_cast<std::size_t>(q)], "in finish_queue()");
+}
+
+std::unique_ptr<HostBuffer> CudaBackend::allocate_host(std::size_t bytes) {
+  activate();
+  void* p = nullptr;
+  const std::size_t n = bytes > 0 ? bytes : 1;
+  check(cudaHostAlloc(&p, n, cudaHostAllocDefault), "cudaHostAlloc(" + std::to_string(bytes) + " bytes)");
+  std::memset(p, 0, n);
+  return std::make_unique<CudaHostBuffer>(static_cast<std::uint8_t*>(p), bytes, device_.index, link_);
+}
+
+namespace {
+
+const CudaHostBuffer& own_host_buffer(const HostBuffer& b, const BackendLink* link, const char* call) {
+  const auto* pinned = dynamic_cast<const CudaHostBuffer*>(&b);
+  if (pinned == nullptr || !pinned->made_by(link))
+    throw BackendError(std::string("cuda: ") + call +
+                       ": the host buffer was not made by this backend's allocate_host() (asynchronous "
+                       "copies need its page-locked memory)");
+  return *pinned;
+}
+
+}  // namespace
+
+void CudaBackend::upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                               std::size_t bytes) {
+  check_range(dst, dst_offset, bytes, "upload_async");
+  check_host_range(src, src_offset, bytes, "cuda", "upload_async");
+  const CudaHostBuffer& pinned = own_host_buffer(src, link_.get(), "upload_async");
+  if (bytes == 0) return;
+  activate();
+  enqueue<&op_copy_h2d>("upload_async (host to device copy)",
+                        dev<std::uint8_t>(dst, static_cast<std::int64_t>(dst_offset)),
+                        static_cast<const std::uint8_t*>(pinned.data() + src_offset), bytes);
+}
+
+void CudaBackend::download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
+                                 std::size_t bytes) {
+  check_range(src, src_offset, bytes, "download_async");
+  check_host_range(dst, dst_offset, bytes, "cuda", "download_async");
+  own_host_buffer(dst, link_.get(), "download_async");
+  if (bytes == 0) return;
+  activate();
+  enqueue<&op_copy_d2h>("download_async (device to host copy)", dst.data() + dst_offset,
+                        dev<std::uint8_t>(src, static_cast<std::int64_t>(src_offset)), bytes);
 }
 
 void CudaBackend::set_graph_mode(GraphMode mode) {
@@ -487,7 +543,7 @@ Buffer& CudaBackend::scratch(const std::string& name, std::size_t bytes) {
 }
 
 void CudaBackend::flush_all() {
-  for (int q = 0; q < kQueues; ++q) flush(q);
+  for (int q = 0; q < kMaxQueues; ++q) flush(q);
 }
 
 void CudaBackend::run_direct(Queue& q, const std::vector<Op>& ops) {

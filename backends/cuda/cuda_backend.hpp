@@ -1,13 +1,14 @@
-// The CUDA backend: one device, two queues (non-blocking streams) that the Frontend uses for the
-// two images of a stereo pair, device memory from cudaMalloc (never managed memory), pinned host
-// staging per queue, grow-only scratch buffers per queue. The kernel contracts of DESIGN.md §3 are
+// The CUDA backend: one device, kMaxQueues queues (non-blocking streams; the Frontend gives each
+// frame in flight two, one per image of a stereo pair), device memory from cudaMalloc (never
+// managed memory), page-locked host buffers for asynchronous transfers (allocate_host), pinned
+// upload staging per queue, grow-only scratch buffers per queue. The kernel contracts of DESIGN.md §3 are
 // dispatched from *_ops.cpp to the kernels of *_kernels.cu (kernels.hpp is the boundary).
 //
 // Work submission (DESIGN.md §4, "CUDA graphs to cut launch overhead"): every copy, fill and
 // launch becomes an operation appended to the current queue's pending segment, together with the
 // bytes of its arguments (device addresses included). A segment is submitted ("flushed") at the
-// next synchronisation point of that queue: a download, synchronize(), use_queue() leaving or
-// entering it, join_queues(), or a grow of its scratch/staging memory. A segment whose argument
+// next synchronisation point of that queue: a download, synchronize(), finish_queue(), use_queue()
+// leaving it, queue_wait() naming it, or a grow of its scratch/staging memory. A segment whose argument
 // bytes equal those of a segment seen before is replayed from an instantiated CUDA graph
 // (cudaGraphLaunch, one call for the whole chain); a new one is launched operation by operation
 // and captured into a graph when seen again (at once with PORTA_CUDA_GRAPHS=eager). The Frontend
@@ -64,6 +65,20 @@ struct BackendLink {
   CudaBackend* backend = nullptr;
 };
 
+/// Page-locked host memory (cudaHostAlloc): the device copies to and from it without the host.
+class CudaHostBuffer final : public HostBuffer {
+ public:
+  CudaHostBuffer(std::uint8_t* pinned, std::size_t bytes, int device, std::shared_ptr<BackendLink> link)
+      : HostBuffer(pinned, bytes), device_(device), link_(std::move(link)) {}
+  ~CudaHostBuffer() override;
+  /// True when this buffer was made by the backend behind `link`.
+  bool made_by(const BackendLink* link) const { return link_.get() == link; }
+
+ private:
+  int device_;
+  std::shared_ptr<BackendLink> link_;
+};
+
 class CudaBuffer final : public Buffer {
  public:
   CudaBuffer(std::uint8_t* device_ptr, std::size_t bytes, int device, std::shared_ptr<BackendLink> link)
@@ -112,18 +127,18 @@ struct CudaStats {
   std::uint64_t graph_captures = 0;    ///< captured, instantiated and launched
   std::uint64_t graph_replays = 0;     ///< launched from the cache
   std::uint64_t capture_failures = 0;  ///< could not be captured (then launched directly)
-  std::uint64_t queue_waits = 0;       ///< cudaStreamWaitEvent calls (use_queue, join_queues)
+  std::uint64_t queue_waits = 0;       ///< cudaStreamWaitEvent calls (queue_wait)
   std::uint64_t cache_drops = 0;       ///< graph cache emptied because memory was freed
 };
 
 class CudaBackend final : public Backend {
  public:
-  static constexpr int kQueues = 2;
+  static constexpr int kMaxQueues = 16;
 
   /// Selects the device by options.device, else $PORTA_CUDA_DEVICE, else device 0: an index or a
   /// case-insensitive substring of the device name. Throws BackendError listing the devices found.
-  /// Reads $PORTA_CUDA_GRAPHS (0, 1, eager), $PORTA_CUDA_STREAMS (0: use_queue is ignored, all work
-  /// on one stream; 1, the default: two), $PORTA_CUDA_CULL and $PORTA_CUDA_MLPT_NMAX.
+  /// Reads $PORTA_CUDA_GRAPHS (0, 1, eager), $PORTA_CUDA_STREAMS (0: one queue, all work on one
+  /// stream; 1, the default: kMaxQueues), $PORTA_CUDA_CULL and $PORTA_CUDA_MLPT_NMAX.
   explicit CudaBackend(const BackendOptions& options = {});
   ~CudaBackend() override;
 
@@ -136,12 +151,21 @@ class CudaBackend final : public Backend {
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
   void synchronize() override;
 
-  /// Queue q's stream from now on. Besides what backend.hpp promises, queue q also waits for
-  /// everything the other queue had been given when it was last selected: work issued before a
-  /// stretch of use_queue() calls (tables uploaded at set-up, the previous frame's stereo
-  /// matching) is visible to both queues, while the two sides of a pair still overlap.
+  /// kMaxQueues, or 1 when streams are off ($PORTA_CUDA_STREAMS=0).
+  int queue_count() const override { return streams_enabled_ ? kMaxQueues : 1; }
+  /// Queue q's stream from now on (with streams off every queue is stream 0). Submits what the
+  /// queue being left has pending, so that it runs while the host records the next one.
   void use_queue(int queue) override;
-  void join_queues() override;
+  /// An event recorded on `other`'s stream that the current stream waits for.
+  void queue_wait(int other) override;
+  void finish_queue(int queue) override;
+  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes) override;
+  /// `src` / `dst` must come from this backend's allocate_host() (BackendError otherwise): the
+  /// copy is then a plain DMA that a CUDA graph can hold.
+  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                    std::size_t bytes) override;
+  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
+                      std::size_t bytes) override;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 
@@ -198,11 +222,8 @@ class CudaBackend final : public Backend {
   };
   struct Queue {
     cudaStream_t stream = nullptr;
-    cudaEvent_t entry = nullptr;       // recorded when use_queue selects this queue
-    cudaEvent_t done = nullptr;        // recorded by join_queues
+    cudaEvent_t done = nullptr;        // recorded by queue_wait naming this queue
     cudaEvent_t arena_free = nullptr;  // after the last segment that read the upload arena
-    std::uint64_t entry_gen = 0;
-    std::array<std::uint64_t, kQueues> waited{};  // entry_gen of each queue this one waited for
     std::vector<Op> pending;
     std::vector<std::uint8_t> signature;
     // Pinned upload arena: each segment takes its uploads' staging from offset 0 on, so that the
@@ -251,9 +272,8 @@ class CudaBackend final : public Backend {
   CullVariant cull_variant_ = CullVariant::kMlptTewa;
   GraphMode graph_mode_ = GraphMode::kRepeat;
   bool streams_enabled_ = true;
-  std::array<Queue, kQueues> queues_{};
+  std::array<Queue, kMaxQueues> queues_{};
   int current_ = 0;
-  std::uint64_t entry_clock_ = 0;
   std::vector<CachedGraph> graphs_;
   std::uint64_t graph_clock_ = 0;
   std::unordered_set<std::uint64_t> seen_;           // segments launched once (kRepeat)
@@ -265,6 +285,7 @@ class CudaBackend final : public Backend {
 
 /// Free functions for operations that are runtime calls rather than kernels (enqueue<...>).
 cudaError_t op_copy_h2d(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream);
+cudaError_t op_copy_d2h(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream);
 cudaError_t op_copy_d2d(std::uint8_t* dst, const std::uint8_t* src, std::size_t bytes, cudaStream_t stream);
 cudaError_t op_fill(std::uint8_t* dst, int value, std::size_t bytes, cudaStream_t stream);
 

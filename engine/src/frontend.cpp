@@ -1,5 +1,6 @@
 #include "porta/frontend.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -23,13 +24,34 @@ std::unique_ptr<Buffer> upload_vector(Backend& backend, const std::vector<T>& v)
 
 }  // namespace
 
+// Device state of one camera in one slot. The keypoint buffer holds the list's records, then its
+// count (at `count_offset`), so that one transfer brings both back.
 struct Frontend::Side {
-  explicit Side(Backend& backend) : keypoints(backend), descriptors(backend) {}
-  std::unique_ptr<Buffer> pyramid, responses, cells, count, blurred;
-  SyncBuffer<Keypoint> keypoints;
-  SyncBuffer<Descriptor> descriptors;
-  std::vector<std::uint8_t> staging;  // level 0 re-pitched for one upload
-  int num_keypoints = 0;
+  std::unique_ptr<Buffer> pyramid, responses, cells, blurred, keypoints, descriptors;
+  std::unique_ptr<HostBuffer> input;   // level 0 at the pyramid's pitch: the upload's source
+  std::unique_ptr<HostBuffer> output;  // the keypoint buffer, then the descriptors, as downloaded
+  std::size_t count_offset = 0;
+  std::size_t descriptors_at = 0;  // in `output`
+  int capacity = 0;
+
+  DeviceList list() {
+    return DeviceList{keypoints.get(), keypoints.get(), static_cast<std::int64_t>(count_offset), capacity};
+  }
+  std::uint32_t downloaded_count() const {
+    std::uint32_t n = 0;
+    std::memcpy(&n, output->data() + count_offset, sizeof(n));
+    return std::min<std::uint32_t>(n, static_cast<std::uint32_t>(capacity));
+  }
+};
+
+struct Frontend::Slot {
+  Side sides[2];
+  std::unique_ptr<Buffer> matches;
+  std::unique_ptr<HostBuffer> match_output;
+  int queues[2] = {0, 0};
+  bool stereo = false;
+  std::int64_t submitted_ns = 0;
+  StageTimes times;
 };
 
 double Features::level0_x(std::size_t i, const FrontendTables& tables) const {
@@ -48,6 +70,10 @@ int StereoFeatures::num_matches() const {
 Frontend::Frontend(Backend& backend, const FrontendSettings& settings, int width, int height,
                    FrontendOptions options)
     : backend_(backend), tables_(FrontendTables::build(settings, width, height)), options_(options) {
+  if (options_.in_flight < 1 || options_.in_flight > FrontendOptions::kMaxInFlight)
+    throw std::invalid_argument("Frontend: in_flight = " + std::to_string(options_.in_flight) +
+                                " is outside [1, " + std::to_string(FrontendOptions::kMaxInFlight) +
+                                "] (frames submitted and not yet collected)");
   pyramid_layout_ = PyramidLayout::make(tables_.level_sizes, 1);
   response_layout_ = PyramidLayout::make(tables_.level_sizes, 2);
   lut_ = upload_vector(backend_, tables_.fast_lut);
@@ -55,23 +81,45 @@ Frontend::Frontend(Backend& backend, const FrontendSettings& settings, int width
                                                                    : tables_.resize.packed);
   boundaries_ = upload_vector(backend_, tables_.orientation_boundaries);
   pattern_ = upload_vector(backend_, tables_.orb_pattern);
+  const int queues = std::max(backend_.queue_count(), 1);
+  downloads_at_submit_ = queues > 1;
   const int cells = tables_.cells.total_cells;
-  for (auto& side : sides_) {
-    side = std::make_unique<Side>(backend_);
-    side->pyramid = backend_.allocate(static_cast<std::size_t>(pyramid_layout_.total_bytes));
-    side->responses = backend_.allocate(static_cast<std::size_t>(response_layout_.total_bytes));
-    side->cells = backend_.allocate(static_cast<std::size_t>(cells) * sizeof(Keypoint));
-    side->count = backend_.allocate(sizeof(std::uint32_t));
-    side->blurred = backend_.allocate(static_cast<std::size_t>(pyramid_layout_.total_bytes));
-    side->keypoints.resize(static_cast<std::size_t>(cells));
-    side->descriptors.resize(static_cast<std::size_t>(cells));
-    const Plane& l0 = pyramid_layout_.levels[0];
-    side->staging.assign(static_cast<std::size_t>(l0.pitch) * static_cast<std::size_t>(l0.height), 0);
+  const auto cells_z = static_cast<std::size_t>(cells);
+  const Plane& l0 = pyramid_layout_.levels[0];
+  for (int s = 0; s < options_.in_flight; ++s) {
+    auto slot = std::make_unique<Slot>();
+    // Each slot on queues of its own where the backend has enough; both sides on one otherwise.
+    slot->queues[0] = (2 * s) % queues;
+    slot->queues[1] = (2 * s + 1) % queues;
+    for (Side& side : slot->sides) {
+      side.capacity = cells;
+      side.pyramid = backend_.allocate(static_cast<std::size_t>(pyramid_layout_.total_bytes));
+      side.responses = backend_.allocate(static_cast<std::size_t>(response_layout_.total_bytes));
+      side.cells = backend_.allocate(cells_z * sizeof(Keypoint));
+      side.blurred = backend_.allocate(static_cast<std::size_t>(pyramid_layout_.total_bytes));
+      side.count_offset = cells_z * sizeof(Keypoint);
+      side.keypoints = backend_.allocate(side.count_offset + sizeof(std::uint32_t));
+      side.descriptors = backend_.allocate(cells_z * sizeof(Descriptor));
+      side.input = backend_.allocate_host(static_cast<std::size_t>(l0.pitch) * static_cast<std::size_t>(l0.height));
+      side.descriptors_at = (side.keypoints->size_bytes() + 63) / 64 * 64;
+      side.output = backend_.allocate_host(side.descriptors_at + side.descriptors->size_bytes());
+    }
+    slot->matches = backend_.allocate(cells_z * sizeof(StereoMatch));
+    slot->match_output = backend_.allocate_host(slot->matches->size_bytes());
+    slots_.push_back(std::move(slot));
   }
-  matches_ = backend_.allocate(static_cast<std::size_t>(cells) * sizeof(StereoMatch));
+  // The tables are read by every queue.
+  backend_.synchronize();
 }
 
-Frontend::~Frontend() = default;
+Frontend::~Frontend() {
+  // Work still in flight writes into the slots' memory: let it finish first. Errors are the
+  // caller's to see through collect(); a destructor cannot report them.
+  try {
+    if (pending_ > 0) backend_.synchronize();
+  } catch (...) {
+  }
+}
 
 void Frontend::check_image(const ImageView& image, const char* what) const {
   const Plane& l0 = pyramid_layout_.levels[0];
@@ -85,123 +133,204 @@ void Frontend::check_image(const ImageView& image, const char* what) const {
                                 " is smaller than its width " + std::to_string(image.width));
 }
 
-void Frontend::run_side(Side& side, const ImageView& image) {
+void Frontend::run_side(Slot& slot, Side& side, const ImageView& image) {
   const bool profile = options_.profile_stages;
+  StageTimes& times = slot.times;
   std::int64_t t = now_ns();
-  auto stage = [&](std::int64_t& slot) {
+  auto stage = [&](std::int64_t& slot_ns) {
     if (!profile) return;
     backend_.synchronize();
     const std::int64_t t1 = now_ns();
-    slot += t1 - t;
+    slot_ns += t1 - t;
     t = t1;
   };
 
   const Plane& l0 = pyramid_layout_.levels[0];
+  std::uint8_t* input = side.input->data();
   for (int y = 0; y < image.height; ++y)
-    std::memcpy(side.staging.data() + static_cast<std::size_t>(y) * l0.pitch, image.row(y),
-                static_cast<std::size_t>(image.width));
-  backend_.upload(*side.pyramid, 0, side.staging.data(), side.staging.size());
-  stage(times_.upload_ns);
+    std::memcpy(input + static_cast<std::size_t>(y) * l0.pitch, image.row(y), static_cast<std::size_t>(image.width));
+  backend_.upload_async(*side.pyramid, 0, *side.input, 0, side.input->size_bytes());
+  stage(times.upload_ns);
 
   backend_.build_pyramid(*side.pyramid, pyramid_layout_, *resize_, tables_.resize.level_offset);
-  stage(times_.pyramid_ns);
+  stage(times.pyramid_ns);
 
   const auto& s = tables_.settings;
   backend_.fast_crf(*side.pyramid, pyramid_layout_, *lut_, *side.responses, response_layout_,
                     FastParams{s.fast_threshold, s.edge});
-  stage(times_.fast_ns);
+  stage(times.fast_ns);
 
   backend_.cull_cells(*side.responses, response_layout_, tables_.cells, *side.cells);
-  stage(times_.cull_ns);
+  stage(times.cull_ns);
 
   if (s.pfa) {
     backend_.pfa_filter(*side.cells, tables_.cells,
                         PfaParams{tables_.scales_q16, l0.width, l0.height, s.pfa_window});
   }
-  const DeviceList list{&side.keypoints.device_write(), side.count.get(), 0, tables_.cells.total_cells};
+  const DeviceList list = side.list();
   backend_.compact_keypoints(*side.cells, tables_.cells.total_cells, list);
-  stage(times_.pfa_ns);
+  stage(times.pfa_ns);
 
   if (!options_.describe) return;
   backend_.orient(*side.pyramid, pyramid_layout_, list, tables_.umax, *boundaries_, s.orientation_bins);
-  stage(times_.orient_ns);
+  stage(times.orient_ns);
   backend_.blur(*side.pyramid, pyramid_layout_, *side.blurred, tables_.blur_taps);
-  stage(times_.blur_ns);
-  backend_.orb_describe(*side.blurred, pyramid_layout_, list, *pattern_, side.descriptors.device_write());
-  stage(times_.describe_ns);
+  stage(times.blur_ns);
+  backend_.orb_describe(*side.blurred, pyramid_layout_, list, *pattern_, *side.descriptors);
+  stage(times.describe_ns);
 }
 
-Features Frontend::collect(Side& side) {
+// Asynchronous path: the whole keypoint buffer (records and count) and every descriptor slot travel
+// back with the frame's work, as the host cannot know the count before the frame has run.
+void Frontend::enqueue_downloads(Side& side) {
+  backend_.download_async(*side.keypoints, 0, *side.output, 0, side.keypoints->size_bytes());
+  if (options_.describe)
+    backend_.download_async(*side.descriptors, 0, *side.output, side.descriptors_at, side.descriptors->size_bytes());
+}
+
+Features Frontend::collect_side(Slot& slot, Side& side) {
   const std::int64_t t = now_ns();
   std::uint32_t count = 0;
-  backend_.download(*side.count, 0, &count, sizeof(count));
-  side.num_keypoints = static_cast<int>(count);
+  if (downloads_at_submit_) {
+    count = side.downloaded_count();
+  } else {
+    // In-order backend: the count first, then only the records in use.
+    backend_.download(*side.keypoints, side.count_offset, side.output->data() + side.count_offset, sizeof(count));
+    count = side.downloaded_count();
+    backend_.download(*side.keypoints, 0, side.output->data(), count * sizeof(Keypoint));
+    if (options_.describe)
+      backend_.download(*side.descriptors, 0, side.output->data() + side.descriptors_at, count * sizeof(Descriptor));
+  }
   Features f;
-  side.keypoints.resize(count);
-  const Keypoint* kp = side.keypoints.host_read();
+  const auto* kp = reinterpret_cast<const Keypoint*>(side.output->data());
   f.keypoints.assign(kp, kp + count);
   if (options_.describe) {
-    side.descriptors.resize(count);
-    const Descriptor* d = side.descriptors.host_read();
+    const auto* d = reinterpret_cast<const Descriptor*>(side.output->data() + side.descriptors_at);
     f.descriptors.assign(d, d + count);
   }
-  // Restore the full capacity for the next frame's device writes.
-  side.keypoints.resize(static_cast<std::size_t>(tables_.cells.total_cells));
-  side.descriptors.resize(static_cast<std::size_t>(tables_.cells.total_cells));
   f.keypoints_per_level.assign(static_cast<std::size_t>(tables_.settings.levels), 0);
   for (const auto& k : f.keypoints) ++f.keypoints_per_level[k.level];
-  times_.download_ns += now_ns() - t;
+  slot.times.download_ns += now_ns() - t;
   return f;
 }
 
-Features Frontend::detect(const ImageView& image) {
+Frontend::Slot& Frontend::begin_submit(bool stereo) {
+  if (stereo && !options_.describe)
+    throw std::logic_error("Frontend: stereo matching needs descriptors (describe = true)");
+  if (pending_ >= in_flight())
+    throw std::logic_error("Frontend: " + std::to_string(pending_) + " frame" + (pending_ == 1 ? " is" : "s are") +
+                           " already in flight (in_flight = " + std::to_string(in_flight()) +
+                           "); collect one before submitting another");
+  Slot& slot = *slots_[static_cast<std::size_t>(next_submit_)];
+  slot.stereo = stereo;
+  slot.times = {};
+  slot.submitted_ns = now_ns();
+  return slot;
+}
+
+Frontend::Slot& Frontend::begin_collect(bool stereo) {
+  const char* const want = stereo ? "collect_stereo" : "collect";
+  if (pending_ == 0)
+    throw std::logic_error(std::string("Frontend: ") + want + "() with no frame in flight (submit one first)");
+  const int oldest = (next_submit_ - pending_ + in_flight()) % in_flight();
+  Slot& slot = *slots_[static_cast<std::size_t>(oldest)];
+  if (slot.stereo != stereo)
+    throw std::logic_error(std::string("Frontend: ") + want + "(): the oldest frame in flight is " +
+                           (slot.stereo ? "a stereo pair (use collect_stereo)" : "a single image (use collect)"));
+  // Whatever happens below, the frame leaves the queue: an error is reported once.
+  last_collected_ = oldest;
+  --pending_;
+  for (int q : {slot.queues[0], slot.queues[1]}) backend_.finish_queue(q);
+  return slot;
+}
+
+void Frontend::end_collect(Slot& slot) {
+  slot.times.total_ns = now_ns() - slot.submitted_ns;
+  times_ = slot.times;
+}
+
+void Frontend::submit(const ImageView& image) {
   check_image(image, "input");
-  times_ = {};
-  const std::int64_t t0 = now_ns();
-  run_side(*sides_[0], image);
-  Features f = collect(*sides_[0]);
-  times_.total_ns = now_ns() - t0;
-  return f;
+  Slot& slot = begin_submit(false);
+  backend_.use_queue(slot.queues[0]);
+  run_side(slot, slot.sides[0], image);
+  if (downloads_at_submit_) enqueue_downloads(slot.sides[0]);
+  next_submit_ = (next_submit_ + 1) % in_flight();
+  ++pending_;
 }
 
-StereoFeatures Frontend::detect_stereo(const ImageView& left, const ImageView& right) {
-  if (!options_.describe) throw std::logic_error("Frontend: stereo matching needs descriptors (describe = true)");
+void Frontend::submit_stereo(const ImageView& left, const ImageView& right) {
   check_image(left, "left");
   check_image(right, "right");
-  times_ = {};
-  const std::int64_t t0 = now_ns();
+  Slot& slot = begin_submit(true);
   // The two images are independent until stereo matching: one queue each, so that a backend with
   // several queues overlaps them (stage profiling synchronises after each stage, serialising them).
-  backend_.use_queue(0);
-  run_side(*sides_[0], left);
-  backend_.use_queue(1);
-  run_side(*sides_[1], right);
-  backend_.use_queue(0);
-  backend_.join_queues();
-  StereoFeatures out;
-  out.left = collect(*sides_[0]);
-  out.right = collect(*sides_[1]);
+  backend_.use_queue(slot.queues[1]);
+  run_side(slot, slot.sides[1], right);
+  if (downloads_at_submit_) enqueue_downloads(slot.sides[1]);
+  backend_.use_queue(slot.queues[0]);
+  run_side(slot, slot.sides[0], left);
+  if (slot.queues[1] != slot.queues[0]) backend_.queue_wait(slot.queues[1]);
 
   const std::int64_t ts = now_ns();
   const auto& s = tables_.settings;
   StereoParams params{tables_.scales_q16, tables_.stereo_row_radius_q8, s.stereo_min_disparity * 256,
                       s.stereo_max_disparity * 256, s.stereo_max_hamming};
-  const int capacity = tables_.cells.total_cells;
-  const ConstDeviceList lk{DeviceList{&sides_[0]->keypoints.device_write(), sides_[0]->count.get(), 0, capacity}};
-  const ConstDeviceList rk{DeviceList{&sides_[1]->keypoints.device_write(), sides_[1]->count.get(), 0, capacity}};
-  backend_.stereo_match(*sides_[0]->pyramid, *sides_[1]->pyramid, pyramid_layout_, lk,
-                        sides_[0]->descriptors.device_read(), rk, sides_[1]->descriptors.device_read(), params,
-                        *matches_);
+  Side& l = slot.sides[0];
+  Side& r = slot.sides[1];
+  backend_.stereo_match(*l.pyramid, *r.pyramid, pyramid_layout_, l.list(), *l.descriptors, r.list(), *r.descriptors,
+                        params, *slot.matches);
+  if (downloads_at_submit_) {
+    enqueue_downloads(l);
+    backend_.download_async(*slot.matches, 0, *slot.match_output, 0, slot.matches->size_bytes());
+  }
+  slot.times.stereo_ns += now_ns() - ts;
+  next_submit_ = (next_submit_ + 1) % in_flight();
+  ++pending_;
+}
+
+Features Frontend::collect() {
+  Slot& slot = begin_collect(false);
+  Features f = collect_side(slot, slot.sides[0]);
+  end_collect(slot);
+  return f;
+}
+
+StereoFeatures Frontend::collect_stereo() {
+  Slot& slot = begin_collect(true);
+  StereoFeatures out;
+  out.left = collect_side(slot, slot.sides[0]);
+  out.right = collect_side(slot, slot.sides[1]);
+  const std::int64_t ts = now_ns();
   out.matches.resize(out.left.keypoints.size());
-  backend_.download(*matches_, 0, out.matches.data(), out.matches.size() * sizeof(StereoMatch));
-  times_.stereo_ns += now_ns() - ts;
-  times_.total_ns = now_ns() - t0;
+  const std::size_t bytes = out.matches.size() * sizeof(StereoMatch);
+  if (!downloads_at_submit_) backend_.download(*slot.matches, 0, slot.match_output->data(), bytes);
+  if (bytes > 0) std::memcpy(out.matches.data(), slot.match_output->data(), bytes);
+  slot.times.stereo_ns += now_ns() - ts;
+  end_collect(slot);
   return out;
+}
+
+Features Frontend::detect(const ImageView& image) {
+  if (pending_ > 0)
+    throw std::logic_error("Frontend: detect() while " + std::to_string(pending_) +
+                           " submitted frame(s) wait to be collected");
+  submit(image);
+  return collect();
+}
+
+StereoFeatures Frontend::detect_stereo(const ImageView& left, const ImageView& right) {
+  if (pending_ > 0)
+    throw std::logic_error("Frontend: detect_stereo() while " + std::to_string(pending_) +
+                           " submitted frame(s) wait to be collected");
+  submit_stereo(left, right);
+  return collect_stereo();
 }
 
 std::vector<std::uint8_t> Frontend::download_pyramid(int side) const {
   std::vector<std::uint8_t> out(static_cast<std::size_t>(pyramid_layout_.total_bytes));
-  backend_.download(*sides_[side == 0 ? 0 : 1]->pyramid, 0, out.data(), out.size());
+  const Slot& slot = *slots_[static_cast<std::size_t>(last_collected_)];
+  backend_.download(*slot.sides[side == 0 ? 0 : 1].pyramid, 0, out.data(), out.size());
   return out;
 }
 

@@ -33,7 +33,20 @@ function(porta_bench_cli_tests)
                  ARGS bench --frames 2 --warmup 0 --resolutions 640x480 --levels 1 --modes stereo --no-peer
                       --backend cpu --data bench_no_data)
 
+  # Frames in flight: the cpu backend runs frames in order, so --in-flight 4 adds no cpu/4 row (the
+  # table has the one cpu row, then the footnote).
+  porta_cli_test(bench_in_flight_in_order_backend EXIT 0
+                 STDOUT "rows BACKEND/N: throughput.*
+cpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
+
+frames/s"
+                 ARGS bench ${tiny} --backend cpu --no-peer --in-flight 1,4)
+
   # ---- Bad input: exit 1 and a message naming the option and what it accepts ----------------------
+  porta_cli_test(bench_in_flight_out_of_range EXIT 1
+                 STDERR "option --in-flight expects frame counts in \\[1, 16\\], got 17" ARGS bench --in-flight 1,17)
+  porta_cli_test(bench_in_flight_not_a_number EXIT 1 STDERR "option --in-flight expects an integer, got 'all'"
+                 ARGS bench --in-flight all)
   porta_cli_test(bench_unknown_backend EXIT 1
                  STDERR "portaslam bench: unknown backend 'nosuch': choose one of cpu, cuda, vulkan, opencl.*portaslam backends"
                  ARGS bench ${tiny} --backend cpu,nosuch)

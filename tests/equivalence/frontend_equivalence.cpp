@@ -1,6 +1,8 @@
 // Equivalence of the whole pipeline: porta::Frontend on cpu and on the backend under test, mono
 // (detect) and stereo (detect_stereo), two frames in a row through the same Frontend so that state
-// left over from the first frame (stale counts, lists, descriptors) shows in the second.
+// left over from the first frame (stale counts, lists, descriptors) shows in the second; then the
+// same frames again through a Frontend that keeps all of them in flight at once (submit every
+// frame, then collect: on cuda each frame on queues of its own, results downloaded asynchronously).
 #include <algorithm>
 #include <sstream>
 #include <utility>
@@ -19,6 +21,18 @@ std::string per_level(const std::vector<int>& counts) {
   for (std::size_t i = 0; i < counts.size(); ++i) o << (i ? " " : "") << counts[i];
   o << "]";
   return o.str();
+}
+
+FrontendOptions all_in_flight(std::size_t frames) {
+  FrontendOptions o;
+  o.in_flight = static_cast<int>(std::clamp<std::size_t>(frames, 1, FrontendOptions::kMaxInFlight));
+  return o;
+}
+
+// Frames [0, per_pass) come one at a time, the next per_pass all in flight at once.
+std::string frame_name(std::size_t f, std::size_t per_pass) {
+  return f < per_pass ? "frame " + std::to_string(f + 1)
+                      : "frame " + std::to_string(f - per_pass + 1) + " (all frames in flight)";
 }
 
 class FrontendPipeline : public KernelEquivalence {
@@ -63,6 +77,10 @@ TEST_P(FrontendPipeline, MatchesCpu) {
       std::vector<StereoFeatures> frames;
       for (std::size_t f = 0; f + 1 < images.size(); f += 2)
         frames.push_back(frontend.detect_stereo(images[f]->view(), images[f + 1]->view()));
+      Frontend pipelined(b, settings, w, h, all_in_flight(images.size() / 2));
+      for (std::size_t f = 0; f + 1 < images.size(); f += 2)
+        pipelined.submit_stereo(images[f]->view(), images[f + 1]->view());
+      while (pipelined.pending() > 0) frames.push_back(pipelined.collect_stereo());
       return frames;
     });
     if (!out) return;
@@ -70,7 +88,7 @@ TEST_P(FrontendPipeline, MatchesCpu) {
     if (!got.empty() && !got[0].left.keypoints.empty())
       debug_corrupt(&got[0].left.keypoints[got[0].left.keypoints.size() / 2], sizeof(Keypoint), 0);
     for (std::size_t f = 0; f < ref.size(); ++f) {
-      const std::string frame = "frame " + std::to_string(f + 1);
+      const std::string frame = frame_name(f, ref.size() / 2);
       const bool left_same = expect_same_features(frame + ", left image", ref[f].left, got[f].left);
       const bool right_same = expect_same_features(frame + ", right image", ref[f].right, got[f].right);
       if (!left_same || !right_same) continue;  // matches of different keypoints are not comparable
@@ -84,6 +102,9 @@ TEST_P(FrontendPipeline, MatchesCpu) {
       Frontend frontend(b, settings, w, h);
       std::vector<Features> frames;
       for (const Image* image : images) frames.push_back(frontend.detect(image->view()));
+      Frontend pipelined(b, settings, w, h, all_in_flight(images.size()));
+      for (const Image* image : images) pipelined.submit(image->view());
+      while (pipelined.pending() > 0) frames.push_back(pipelined.collect());
       return frames;
     });
     if (!out) return;
@@ -91,7 +112,7 @@ TEST_P(FrontendPipeline, MatchesCpu) {
     if (!got.empty() && !got[0].keypoints.empty())
       debug_corrupt(&got[0].keypoints[got[0].keypoints.size() / 2], sizeof(Keypoint), 0);
     for (std::size_t f = 0; f < ref.size(); ++f)
-      expect_same_features("frame " + std::to_string(f + 1), ref[f], got[f]);
+      expect_same_features(frame_name(f, ref.size() / 2), ref[f], got[f]);
   }
 }
 

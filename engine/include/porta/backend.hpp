@@ -20,6 +20,7 @@
 namespace porta {
 
 class Backend;
+class HostBuffer;
 
 /// Raised for a failing device call or an unusable backend; the message names the backend, the
 /// call, the error code and its meaning.
@@ -43,6 +44,30 @@ class Buffer {
  private:
   std::size_t size_bytes_;
 };
+
+/// Host memory made by one backend for its asynchronous transfers (Backend::allocate_host).
+class HostBuffer {
+ public:
+  virtual ~HostBuffer() = default;
+  HostBuffer(const HostBuffer&) = delete;
+  HostBuffer& operator=(const HostBuffer&) = delete;
+
+  std::uint8_t* data() { return data_; }
+  const std::uint8_t* data() const { return data_; }
+  std::size_t size_bytes() const { return size_bytes_; }
+
+ protected:
+  HostBuffer(std::uint8_t* data, std::size_t size_bytes) : data_(data), size_bytes_(size_bytes) {}
+
+ private:
+  std::uint8_t* data_;
+  std::size_t size_bytes_;
+};
+
+/// Throws BackendError ("<backend>: <call>: range ... is outside the host buffer of N bytes") when
+/// [offset, offset + bytes) does not fit in `buffer`.
+void check_host_range(const HostBuffer& buffer, std::size_t offset, std::size_t bytes, const std::string& backend,
+                      const char* call);
 
 // ---- Kernel parameters (small, passed by value with each call) -----------------------------------
 
@@ -109,13 +134,39 @@ class Backend {
   /// True when device buffers are host memory (no copy is needed to read them on the host).
   virtual bool host_visible() const { return false; }
 
-  /// Independent streams of work (DESIGN.md §4): calls after `use_queue(q)` go to queue q (0 or 1,
-  /// e.g. one per camera of a stereo pair) and may overlap with work on the other queue. Work on one
-  /// queue never sees the other's results unless `join_queues()` came between: it makes later work
-  /// on the current queue wait for everything submitted to every queue. Transfers and downloads
-  /// behave as on the current queue. Backends with one queue ignore both calls (the default).
+  // ---- Queues and asynchronous transfers (DESIGN.md §4) -------------------------------------------
+  //
+  // A backend has queue_count() independent queues of work. Calls after `use_queue(q)` go to queue
+  // q and run in the order they were made; work on different queues may run at the same time and
+  // in any order, so work on one queue sees another queue's results only after `queue_wait`, a
+  // `finish_queue` of that queue, or `synchronize()`. Memory allocated and uploads made before
+  // a synchronize() are visible to every queue. Backends with one queue ignore use_queue() and
+  // queue_wait(): everything runs in call order there.
+
+  /// How many queues use_queue() accepts (1 for a backend that runs everything in order).
+  virtual int queue_count() const { return 1; }
+  /// Sends later calls to queue `queue` (0 <= queue < queue_count()).
   virtual void use_queue(int queue) { (void)queue; }
-  virtual void join_queues() {}
+  /// Later work on the current queue waits for everything submitted to queue `other` so far.
+  virtual void queue_wait(int other) { (void)other; }
+  /// Waits on the host until everything submitted to `queue` has run, asynchronous downloads into
+  /// host buffers included. Errors of that work surface here.
+  virtual void finish_queue(int queue) {
+    (void)queue;
+    synchronize();
+  }
+
+  /// Host memory for asynchronous transfers: page-locked where that lets the device copy without
+  /// the host (cuda), plain memory elsewhere. Zero-filled. Only this backend's transfers may use it.
+  virtual std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes);
+  /// Enqueues a copy of `bytes` of `src` (from `src_offset`) to `dst` on the current queue and
+  /// returns; `src` must stay unchanged until the queue has been finished. The default copies at once.
+  virtual void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                            std::size_t bytes);
+  /// Enqueues a copy to host memory on the current queue and returns; `dst` holds the bytes once
+  /// finish_queue() of that queue or synchronize() has returned. The default copies at once.
+  virtual void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
+                              std::size_t bytes);
 
   // Kernels: DESIGN.md §3, one method per contract.
 

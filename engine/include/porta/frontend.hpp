@@ -1,6 +1,12 @@
 // The feature frontend: drives any backend through the whole pipeline of DESIGN.md §3 for one
 // image or a rectified stereo pair: pyramid -> CRF -> culling -> PFA -> orientation -> blur ->
 // descriptors (-> stereo match). One Frontend per settings and image size; reuse it per frame.
+//
+// Frames in flight: with FrontendOptions::in_flight = N > 1 the Frontend keeps N sets of device
+// buffers ("slots"), each on its own queues of the backend, and `submit` returns as soon as a
+// frame's work is enqueued; `collect` returns the oldest submitted frame's features. A backend with
+// several queues (cuda) then overlaps the frames' transfers and kernels with each other and with
+// the caller; the others run each frame in order and give the same results.
 #pragma once
 
 #include <cstdint>
@@ -17,7 +23,7 @@
 
 namespace porta {
 
-/// Wall-clock time of each stage of the last call, in nanoseconds. Stages are only separated
+/// Wall-clock time of each stage of the last collected frame, in nanoseconds. Stages are only separated
 /// (with a synchronize between them) when `FrontendOptions::profile_stages` is set; otherwise
 /// only `total_ns` is filled.
 struct StageTimes {
@@ -31,7 +37,7 @@ struct StageTimes {
   std::int64_t describe_ns = 0;
   std::int64_t stereo_ns = 0;
   std::int64_t download_ns = 0;
-  std::int64_t total_ns = 0;
+  std::int64_t total_ns = 0;  ///< from the start of submit (or detect) to the end of collect
 };
 
 struct Features {
@@ -54,6 +60,8 @@ struct StereoFeatures {
 struct FrontendOptions {
   bool describe = true;        ///< orientation, blur and descriptors; off = detection only
   bool profile_stages = false; ///< synchronize between stages to time each one
+  int in_flight = 1;           ///< frames submitted and not yet collected, at most (1..kMaxInFlight)
+  static constexpr int kMaxInFlight = 16;
 };
 
 class Frontend {
@@ -66,23 +74,44 @@ class Frontend {
   Frontend(const Frontend&) = delete;
   Frontend& operator=(const Frontend&) = delete;
 
-  /// Detects (and describes) features in one image of the Frontend's size.
+  /// Detects (and describes) features in one image of the Frontend's size: submit, then collect.
+  /// std::logic_error when frames submitted earlier have not been collected.
   Features detect(const ImageView& image);
-  /// Both images, then stereo matching of left against right.
+  /// Both images, then stereo matching of left against right: submit_stereo, then collect_stereo.
   StereoFeatures detect_stereo(const ImageView& left, const ImageView& right);
+
+  /// Enqueues one image (copied before returning: the caller may reuse its memory at once).
+  /// std::logic_error when `in_flight` frames are already pending.
+  void submit(const ImageView& image);
+  /// Enqueues a rectified pair (both copied before returning), as submit().
+  void submit_stereo(const ImageView& left, const ImageView& right);
+  /// The oldest pending frame, which must have come from submit() (std::logic_error when none is
+  /// pending or it is a pair). Waits for it.
+  Features collect();
+  /// The oldest pending frame, which must have come from submit_stereo(); otherwise as collect().
+  StereoFeatures collect_stereo();
+  /// Frames submitted and not yet collected.
+  int pending() const { return pending_; }
+  int in_flight() const { return static_cast<int>(slots_.size()); }
 
   const FrontendTables& tables() const { return tables_; }
   const PyramidLayout& pyramid_layout() const { return pyramid_layout_; }
   const StageTimes& last_times() const { return times_; }
   Backend& backend() { return backend_; }
 
-  /// Downloads the (unblurred) pyramid of the last left/single image, for drawing or debugging.
+  /// Downloads the (unblurred) pyramid of the last collected left/single image, for drawing or
+  /// debugging (valid until that frame's buffers are reused by a later submit).
   std::vector<std::uint8_t> download_pyramid(int side = 0) const;
 
  private:
   struct Side;  // device state for one camera
-  void run_side(Side& side, const ImageView& image);
-  Features collect(Side& side);
+  struct Slot;  // one frame in flight: two sides, matches, the queues it runs on
+  void run_side(Slot& slot, Side& side, const ImageView& image);
+  void enqueue_downloads(Side& side);
+  Features collect_side(Slot& slot, Side& side);
+  Slot& begin_submit(bool stereo);
+  Slot& begin_collect(bool stereo);
+  void end_collect(Slot& slot);
   void check_image(const ImageView& image, const char* what) const;
 
   Backend& backend_;
@@ -91,8 +120,11 @@ class Frontend {
   PyramidLayout pyramid_layout_;
   PyramidLayout response_layout_;
   std::unique_ptr<Buffer> lut_, resize_, boundaries_, pattern_;
-  std::unique_ptr<Side> sides_[2];
-  std::unique_ptr<Buffer> matches_;
+  std::vector<std::unique_ptr<Slot>> slots_;
+  bool downloads_at_submit_ = false;  // the backend has several queues: results travel back async
+  int next_submit_ = 0;               // slot of the next submit
+  int pending_ = 0;
+  int last_collected_ = 0;
   StageTimes times_;
 };
 
