@@ -50,6 +50,8 @@ double elapsed_us(Clock::time_point since) {
 
 struct FrameResult {
   double us = 0.0;
+  double submit_us = 0.0;   // host time inside submit: copies and enqueueing
+  double collect_us = 0.0;  // host time inside collect: waiting for the frame, then copying out
   double keypoints = 0.0;  // per image (mean of left and right for a pair)
   int matches = 0;
 };
@@ -65,6 +67,7 @@ struct Row {
   BenchMode mode = BenchMode::detect;
   int in_flight = 1;       // > 1: throughput with that many frames in flight
   std::vector<double> us;  // per timed frame, sorted
+  std::vector<double> submit_us, collect_us;  // per timed frame, sorted (ours only)
   double mean_keypoints = 0.0;
   double mean_matches = 0.0;
   double speedup = 0.0;  // ours: peer median / our median; 0 = no peer
@@ -84,6 +87,12 @@ struct Row {
   double frames_per_s() const { return 1e6 / median(); }
 };
 
+double median_of(const std::vector<double>& sorted) {
+  if (sorted.empty()) return 0.0;
+  const std::size_t n = sorted.size();
+  return n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+}
+
 template <typename TimedCall>  // FrameResult(std::size_t frame)
 void measure(Row& row, int warmup, int frames, TimedCall&& call) {
   for (int i = 0; i < warmup; ++i) call(static_cast<std::size_t>(i));
@@ -91,10 +100,14 @@ void measure(Row& row, int warmup, int frames, TimedCall&& call) {
   for (int i = 0; i < frames; ++i) {
     const FrameResult r = call(static_cast<std::size_t>(warmup + i));
     row.us.push_back(r.us);
+    row.submit_us.push_back(r.submit_us);
+    row.collect_us.push_back(r.collect_us);
     keypoints += r.keypoints;
     matches += r.matches;
   }
   std::sort(row.us.begin(), row.us.end());
+  std::sort(row.submit_us.begin(), row.submit_us.end());
+  std::sort(row.collect_us.begin(), row.collect_us.end());
   row.mean_keypoints = keypoints / frames;
   row.mean_matches = matches / frames;
 }
@@ -119,21 +132,29 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
   frontend_options.in_flight = row.in_flight;
   Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
   const bool stereo = row.mode == BenchMode::stereo;
-  auto submit = [&](std::size_t frame) {
+  auto submit = [&](std::size_t frame) {  // returns the µs it took
     const Image& left = in.left[frame % in.left.size()];
+    const Clock::time_point t0 = Clock::now();
     if (stereo)
       frontend.submit_stereo(left.view(), in.right[frame % in.right.size()].view());
     else
       frontend.submit(left.view());
+    return elapsed_us(t0);
   };
-  auto collect = [&] { return stereo ? features_of(frontend.collect_stereo()) : features_of(frontend.collect()); };
+  auto collect = [&] {
+    const Clock::time_point t0 = Clock::now();
+    FrameResult r = stereo ? features_of(frontend.collect_stereo()) : features_of(frontend.collect());
+    r.collect_us = elapsed_us(t0);
+    return r;
+  };
 
   if (row.in_flight == 1) {  // latency: one call, submit to results
     measure(row, options.warmup, options.frames, [&](std::size_t frame) {
       const Clock::time_point t0 = Clock::now();
-      submit(frame);
+      const double submit_us = submit(frame);
       FrameResult r = collect();
       r.us = elapsed_us(t0);
+      r.submit_us = submit_us;
       return r;
     });
     return;
@@ -146,7 +167,7 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
   Clock::time_point last = Clock::now();
   measure(row, options.warmup, options.frames, [&](std::size_t) {
     FrameResult r = collect();
-    submit(submitted++);
+    r.submit_us = submit(submitted++);
     const Clock::time_point now = Clock::now();
     r.us = std::chrono::duration<double, std::micro>(now - last).count();
     last = now;
@@ -410,6 +431,9 @@ void write_json(std::ostream& out, const Report& r) {
         << ", \"frames_per_s\": " << row.frames_per_s() << ", \"mean_keypoints\": " << row.mean_keypoints;
     if (row.mode == BenchMode::stereo) out << ", \"mean_matches\": " << row.mean_matches;
     if (row.backend == kPeerName) out << ", \"nfeatures\": " << row.peer_nfeatures;
+    if (row.backend != kPeerName)
+      out << ", \"submit_median_us\": " << median_of(row.submit_us)
+          << ", \"collect_median_us\": " << median_of(row.collect_us);
     if (row.speedup > 0) out << ", \"speedup_vs_peer\": " << row.speedup;
     out << "}";
   }
@@ -447,7 +471,10 @@ void check_json_path(const std::string& path) {
 void progress(const Row& row, std::size_t done, std::size_t total, double seconds) {
   std::fprintf(stderr, "[%zu/%zu] %-10s %-9s levels %d %-7s ", done, total, row.label().c_str(),
                row.size.text().c_str(), row.levels, mode_name(row.mode));
-  if (row.error.empty())
+  if (row.error.empty() && row.backend != kPeerName)
+    std::fprintf(stderr, "median %9.0f us  %8.1f frames/s  (host: submit %.1f us, collect %.1f us; %.1f s)\n",
+                 row.median(), row.frames_per_s(), median_of(row.submit_us), median_of(row.collect_us), seconds);
+  else if (row.error.empty())
     std::fprintf(stderr, "median %9.0f us  %8.1f frames/s  (%.1f s)\n", row.median(), row.frames_per_s(),
                  seconds);
   else

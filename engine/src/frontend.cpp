@@ -240,7 +240,8 @@ Frontend::Slot& Frontend::begin_collect(bool stereo) {
   // Whatever happens below, the frame leaves the queue: an error is reported once.
   last_collected_ = oldest;
   --pending_;
-  for (int q : {slot.queues[0], slot.queues[1]}) backend_.finish_queue(q);
+  backend_.finish_queue(slot.queues[0]);
+  if (stereo && slot.queues[1] != slot.queues[0]) backend_.finish_queue(slot.queues[1]);
   return slot;
 }
 
