@@ -57,15 +57,17 @@ struct FrameResult {
 };
 
 struct Row {
-  Row(std::string backend_name, Resolution cell_size, int cell_levels, BenchMode cell_mode, int frames_in_flight = 1)
+  Row(std::string backend_name, Resolution cell_size, int cell_levels, BenchMode cell_mode, int frames_in_flight = 1,
+      bool pinned = false)
       : backend(std::move(backend_name)), size(cell_size), levels(cell_levels), mode(cell_mode),
-        in_flight(frames_in_flight) {}
+        in_flight(frames_in_flight), pinned_input(pinned) {}
 
   std::string backend;  // a backend's name, or kPeerName
   Resolution size;
   int levels = 0;
   BenchMode mode = BenchMode::detect;
   int in_flight = 1;       // > 1: throughput with that many frames in flight
+  bool pinned_input = false;  // images in pinned InputImages, no host copy per frame
   std::vector<double> us;  // per timed frame, sorted
   std::vector<double> submit_us, collect_us;  // per timed frame, sorted (ours only)
   double mean_keypoints = 0.0;
@@ -83,7 +85,9 @@ struct Row {
   }
   double median() const { return percentile(50); }
   /// "cuda", or "cuda/4" for a row with 4 frames in flight.
-  std::string label() const { return in_flight > 1 ? backend + "/" + std::to_string(in_flight) : backend; }
+  std::string label() const {
+    return backend + (in_flight > 1 ? "/" + std::to_string(in_flight) : "") + (pinned_input ? "+pin" : "");
+  }
   double frames_per_s() const { return 1e6 / median(); }
 };
 
@@ -132,10 +136,27 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
   frontend_options.in_flight = row.in_flight;
   Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
   const bool stereo = row.mode == BenchMode::stereo;
+  // Pinned input: a ring of in_flight images per camera, filled before timing with the first
+  // frames (as a camera's DMA would fill them); frame i reads ring entry i % in_flight.
+  std::vector<InputImage> ring_left, ring_right;
+  if (row.pinned_input) {
+    for (int i = 0; i < row.in_flight; ++i) {
+      ring_left.push_back(frontend.make_input_image());
+      ring_left.back().assign(in.left[static_cast<std::size_t>(i) % in.left.size()].view());
+      if (!stereo) continue;
+      ring_right.push_back(frontend.make_input_image());
+      ring_right.back().assign(in.right[static_cast<std::size_t>(i) % in.right.size()].view());
+    }
+  }
   auto submit = [&](std::size_t frame) {  // returns the µs it took
     const Image& left = in.left[frame % in.left.size()];
+    const std::size_t ring = frame % static_cast<std::size_t>(row.in_flight);
     const Clock::time_point t0 = Clock::now();
-    if (stereo)
+    if (row.pinned_input && stereo)
+      frontend.submit_stereo(ring_left[ring], ring_right[ring]);
+    else if (row.pinned_input)
+      frontend.submit(ring_left[ring]);
+    else if (stereo)
       frontend.submit_stereo(left.view(), in.right[frame % in.right.size()].view());
     else
       frontend.submit(left.view());
@@ -304,7 +325,9 @@ const char* const kTimingNote =
     "wall time of one Frontend submit + collect (detect / detect_stereo): upload, every kernel, "
     "synchronisation, download of keypoints, descriptors and matches; rows BACKEND/N: throughput with N "
     "frames in flight, the interval between consecutive frames' results (each still uploaded, "
-    "processed and downloaded)";
+    "processed and downloaded); rows +pin: the images already lie in pinned input images (filled before "
+    "timing, as a camera writes its frames), so no host copy per frame, the upload is the device's own "
+    "transfer";
 const char* const kPeerNote =
     "cv::ORB on the CPU, nfeatures = our mean keypoints per image in the same cell, scale 1.2, FAST "
     "threshold 20, Harris score, patch 31; stereo = detectAndCompute on both images + "
@@ -420,7 +443,8 @@ void write_json(std::ostream& out, const Report& r) {
     out << (i ? "," : "") << "\n    {\"backend\": " << json_string(row.backend) << ", \"resolution\": \""
         << row.size.text() << "\", \"width\": " << row.size.width << ", \"height\": " << row.size.height
         << ", \"levels\": " << row.levels << ", \"mode\": \"" << mode_name(row.mode) << "\"";
-    if (row.backend != kPeerName) out << ", \"in_flight\": " << row.in_flight;
+    if (row.backend != kPeerName)
+      out << ", \"in_flight\": " << row.in_flight << ", \"input\": \"" << (row.pinned_input ? "pinned" : "copy") << "\"";
     if (!row.error.empty()) {
       out << ", \"error\": " << json_string(row.error) << "}";
       continue;
@@ -489,15 +513,17 @@ void run_cell(Report& report, const std::vector<std::unique_ptr<Backend>>& backe
   for (const auto& backend : backends) {
     for (const int in_flight : report.options.in_flight) {
       if (in_flight > 1 && backend->queue_count() < 2) continue;  // runs frames in order: as in_flight 1
-      Row row(backend->name(), cell.size, cell.levels, cell.mode, in_flight);
-      const Clock::time_point t0 = Clock::now();
-      try {
-        time_ours(row, *backend, frames, report.options);
-      } catch (const std::exception& e) {
-        row.error = std::string("failed: ") + e.what();
+      for (const bool pinned : report.options.pinned_input) {
+        Row row(backend->name(), cell.size, cell.levels, cell.mode, in_flight, pinned);
+        const Clock::time_point t0 = Clock::now();
+        try {
+          time_ours(row, *backend, frames, report.options);
+        } catch (const std::exception& e) {
+          row.error = std::string("failed: ") + e.what();
+        }
+        report.rows.push_back(std::move(row));
+        progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
       }
-      report.rows.push_back(std::move(row));
-      progress(report.rows.back(), report.rows.size(), total, elapsed_us(t0) / 1e6);
     }
   }
   if (!report.options.peer || !kPeerBuilt) return;
@@ -531,7 +557,8 @@ int run(const BenchOptions& options) {
   const Clock::time_point start = Clock::now();
   std::size_t rows_per_cell = options.peer && kPeerBuilt ? 1 : 0;
   for (const auto& b : backends)
-    for (const int n : options.in_flight) rows_per_cell += n == 1 || b->queue_count() > 1 ? 1 : 0;
+    for (const int n : options.in_flight)
+      rows_per_cell += (n == 1 || b->queue_count() > 1 ? 1 : 0) * options.pinned_input.size();
   const std::size_t total = options.resolutions.size() * options.levels.size() * options.modes.size() * rows_per_cell;
   if (options.peer && !kPeerBuilt)
     std::fprintf(stderr, "portaslam bench: %s: no %s rows; %s\n", kPeerNotBuilt, kPeerName, kPythonPeerHint);

@@ -88,6 +88,13 @@ void apply_value(BenchOptions& o, const std::string& option, const std::string& 
                        "], got " + item);
       o.in_flight.push_back(n);
     }
+  } else if (option == "--input") {
+    o.pinned_input.clear();
+    for (const auto& item : split_list(option, value)) {
+      if (item != "copy" && item != "pinned")
+        throw CliError("unknown input '" + item + "' in --input: choose from copy, pinned");
+      o.pinned_input.push_back(item == "pinned");
+    }
   } else if (option == "--frames") {
     o.frames = parse_count(option, value, 1);
   } else if (option == "--warmup") {
@@ -110,7 +117,7 @@ void apply_value(BenchOptions& o, const std::string& option, const std::string& 
 bool takes_value(const std::string& option) {
   static const char* const names[] = {"--backend", "--resolutions", "--levels", "--modes",
                                       "--frames",  "--warmup",      "--threads", "--device",
-                                      "--json",    "--data",        "--in-flight"};
+                                      "--json",    "--data",        "--in-flight", "--input"};
   return std::find(std::begin(names), std::end(names), option) != std::end(names);
 }
 
@@ -172,6 +179,10 @@ std::string bench_usage() {
          "                       times throughput, the interval between frames completing while N\n"
          "                       are submitted and not yet collected (label BACKEND/N); only backends\n"
          "                       with several queues (cuda) get such rows\n"
+         "  --input LIST         how images reach the frontend (default copy): copy = the host copies\n"
+         "                       each into pinned staging; pinned = they already lie in a ring of\n"
+         "                       pinned input images (filled once, as a camera writes its frames),\n"
+         "                       read in place by the device (label BACKEND+pin)\n"
          "  --frames N           timed frames per cell, [1, 1000000] (default 200)\n"
          "  --warmup W           untimed frames before them, [0, 1000000] (default 20)\n"
          "  --threads N          cpu backend worker threads, 0 = all hardware threads (default 0)\n"

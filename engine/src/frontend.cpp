@@ -133,7 +133,32 @@ void Frontend::check_image(const ImageView& image, const char* what) const {
                                 " is smaller than its width " + std::to_string(image.width));
 }
 
-void Frontend::run_side(Slot& slot, Side& side, const ImageView& image) {
+void InputImage::assign(const ImageView& image) {
+  if (image.data == nullptr || image.width != width_ || image.height != height_)
+    throw std::invalid_argument("InputImage::assign: the image is " + std::to_string(image.width) + "x" +
+                                std::to_string(image.height) + ", this input image " + std::to_string(width_) + "x" +
+                                std::to_string(height_));
+  for (int y = 0; y < height_; ++y) std::memcpy(row(y), image.row(y), static_cast<std::size_t>(width_));
+}
+
+InputImage Frontend::make_input_image() {
+  const Plane& l0 = pyramid_layout_.levels[0];
+  InputImage out;
+  out.buffer_ = backend_.allocate_host(static_cast<std::size_t>(l0.pitch) * static_cast<std::size_t>(l0.height));
+  out.owner_ = this;
+  out.width_ = l0.width;
+  out.height_ = l0.height;
+  out.pitch_ = l0.pitch;
+  return out;
+}
+
+void Frontend::check_input(const InputImage& input, const char* what) const {
+  if (input.owner_ != this || !input.buffer_)
+    throw std::invalid_argument(std::string(what) +
+                                " input image was not made by this Frontend's make_input_image() (or was moved from)");
+}
+
+void Frontend::run_side(Slot& slot, Side& side, const ImageView* image, const InputImage* input) {
   const bool profile = options_.profile_stages;
   StageTimes& times = slot.times;
   std::int64_t t = now_ns();
@@ -146,10 +171,14 @@ void Frontend::run_side(Slot& slot, Side& side, const ImageView& image) {
   };
 
   const Plane& l0 = pyramid_layout_.levels[0];
-  std::uint8_t* input = side.input->data();
-  for (int y = 0; y < image.height; ++y)
-    std::memcpy(input + static_cast<std::size_t>(y) * l0.pitch, image.row(y), static_cast<std::size_t>(image.width));
-  backend_.upload_async(*side.pyramid, 0, *side.input, 0, side.input->size_bytes());
+  if (input != nullptr) {
+    backend_.upload_async(*side.pyramid, 0, *input->buffer_, 0, input->buffer_->size_bytes());
+  } else {
+    std::uint8_t* to = side.input->data();
+    for (int y = 0; y < image->height; ++y)
+      std::memcpy(to + static_cast<std::size_t>(y) * l0.pitch, image->row(y), static_cast<std::size_t>(image->width));
+    backend_.upload_async(*side.pyramid, 0, *side.input, 0, side.input->size_bytes());
+  }
   stage(times.upload_ns);
 
   backend_.build_pyramid(*side.pyramid, pyramid_layout_, *resize_, tables_.resize.level_offset);
@@ -252,25 +281,45 @@ void Frontend::end_collect(Slot& slot) {
 
 void Frontend::submit(const ImageView& image) {
   check_image(image, "input");
-  Slot& slot = begin_submit(false);
-  backend_.use_queue(slot.queues[0]);
-  run_side(slot, slot.sides[0], image);
-  if (downloads_at_submit_) enqueue_downloads(slot.sides[0]);
-  next_submit_ = (next_submit_ + 1) % in_flight();
-  ++pending_;
+  submit_one(&image, nullptr);
+}
+
+void Frontend::submit(const InputImage& image) {
+  check_input(image, "the");
+  submit_one(nullptr, &image);
 }
 
 void Frontend::submit_stereo(const ImageView& left, const ImageView& right) {
   check_image(left, "left");
   check_image(right, "right");
+  submit_pair(&left, nullptr, &right, nullptr);
+}
+
+void Frontend::submit_stereo(const InputImage& left, const InputImage& right) {
+  check_input(left, "left");
+  check_input(right, "right");
+  submit_pair(nullptr, &left, nullptr, &right);
+}
+
+void Frontend::submit_one(const ImageView* image, const InputImage* input) {
+  Slot& slot = begin_submit(false);
+  backend_.use_queue(slot.queues[0]);
+  run_side(slot, slot.sides[0], image, input);
+  if (downloads_at_submit_) enqueue_downloads(slot.sides[0]);
+  next_submit_ = (next_submit_ + 1) % in_flight();
+  ++pending_;
+}
+
+void Frontend::submit_pair(const ImageView* left, const InputImage* left_input, const ImageView* right,
+                           const InputImage* right_input) {
   Slot& slot = begin_submit(true);
   // The two images are independent until stereo matching: one queue each, so that a backend with
   // several queues overlaps them (stage profiling synchronises after each stage, serialising them).
   backend_.use_queue(slot.queues[1]);
-  run_side(slot, slot.sides[1], right);
+  run_side(slot, slot.sides[1], right, right_input);
   if (downloads_at_submit_) enqueue_downloads(slot.sides[1]);
   backend_.use_queue(slot.queues[0]);
-  run_side(slot, slot.sides[0], left);
+  run_side(slot, slot.sides[0], left, left_input);
   if (slot.queues[1] != slot.queues[0]) backend_.queue_wait(slot.queues[1]);
 
   const std::int64_t ts = now_ns();

@@ -41,10 +41,20 @@ cpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
 
 frames/s"
                  ARGS bench ${tiny} --backend cpu --no-peer --in-flight 1,4)
+  # Pinned input images: one more row per backend, labelled +pin.
+  porta_cli_test(bench_pinned_input EXIT 0
+                 STDOUT "
+cpu +320x240 +1 +detect +[0-9]+ .*
+cpu\\+pin +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
+
+frames/s"
+                 ARGS bench ${tiny} --backend cpu --no-peer --input copy,pinned)
 
   # ---- Bad input: exit 1 and a message naming the option and what it accepts ----------------------
   porta_cli_test(bench_in_flight_out_of_range EXIT 1
                  STDERR "option --in-flight expects frame counts in \\[1, 16\\], got 17" ARGS bench --in-flight 1,17)
+  porta_cli_test(bench_unknown_input EXIT 1 STDERR "unknown input 'mmap' in --input: choose from copy, pinned"
+                 ARGS bench --input pinned,mmap)
   porta_cli_test(bench_in_flight_not_a_number EXIT 1 STDERR "option --in-flight expects an integer, got 'all'"
                  ARGS bench --in-flight all)
   porta_cli_test(bench_unknown_backend EXIT 1

@@ -2,7 +2,8 @@
 // (detect) and stereo (detect_stereo), two frames in a row through the same Frontend so that state
 // left over from the first frame (stale counts, lists, descriptors) shows in the second; then the
 // same frames again through a Frontend that keeps all of them in flight at once (submit every
-// frame, then collect: on cuda each frame on queues of its own, results downloaded asynchronously).
+// frame, then collect: on cuda each frame on queues of its own, results downloaded asynchronously),
+// its images handed over as pinned InputImages that the device reads in place.
 #include <algorithm>
 #include <sstream>
 #include <utility>
@@ -27,6 +28,15 @@ FrontendOptions all_in_flight(std::size_t frames) {
   FrontendOptions o;
   o.in_flight = static_cast<int>(std::clamp<std::size_t>(frames, 1, FrontendOptions::kMaxInFlight));
   return o;
+}
+
+std::vector<InputImage> input_images(Frontend& frontend, const std::vector<const Image*>& images) {
+  std::vector<InputImage> out;
+  for (const Image* image : images) {
+    out.push_back(frontend.make_input_image());
+    out.back().assign(image->view());
+  }
+  return out;
 }
 
 // Frames [0, per_pass) come one at a time, the next per_pass all in flight at once.
@@ -78,8 +88,8 @@ TEST_P(FrontendPipeline, MatchesCpu) {
       for (std::size_t f = 0; f + 1 < images.size(); f += 2)
         frames.push_back(frontend.detect_stereo(images[f]->view(), images[f + 1]->view()));
       Frontend pipelined(b, settings, w, h, all_in_flight(images.size() / 2));
-      for (std::size_t f = 0; f + 1 < images.size(); f += 2)
-        pipelined.submit_stereo(images[f]->view(), images[f + 1]->view());
+      const std::vector<InputImage> inputs = input_images(pipelined, images);
+      for (std::size_t f = 0; f + 1 < images.size(); f += 2) pipelined.submit_stereo(inputs[f], inputs[f + 1]);
       while (pipelined.pending() > 0) frames.push_back(pipelined.collect_stereo());
       return frames;
     });
@@ -103,7 +113,8 @@ TEST_P(FrontendPipeline, MatchesCpu) {
       std::vector<Features> frames;
       for (const Image* image : images) frames.push_back(frontend.detect(image->view()));
       Frontend pipelined(b, settings, w, h, all_in_flight(images.size()));
-      for (const Image* image : images) pipelined.submit(image->view());
+      const std::vector<InputImage> inputs = input_images(pipelined, images);
+      for (const InputImage& input : inputs) pipelined.submit(input);
       while (pipelined.pending() > 0) frames.push_back(pipelined.collect());
       return frames;
     });

@@ -209,6 +209,63 @@ TEST(FrontendInFlight, PipelinedDetectionGivesTheBytesOfOneFrameAtATime) {
   }
 }
 
+TEST(FrontendInFlight, InputImagesAreReadInPlaceAndGiveTheSameBytes) {
+  const Pairs in = five_pairs(320, 240);
+  cpu::CpuBackend reference_backend(2);
+  Frontend reference(reference_backend, FrontendSettings{}, 320, 240);
+  FrontendOptions o;
+  o.in_flight = 3;
+  DeferredQueues deferred;
+  Frontend frontend(deferred, FrontendSettings{}, 320, 240, o);
+  // A ring of three pinned pairs, refilled once its frame has been collected, as a camera would.
+  std::vector<InputImage> left, right;
+  for (int i = 0; i < 3; ++i) {
+    left.push_back(frontend.make_input_image());
+    right.push_back(frontend.make_input_image());
+    EXPECT_EQ(left.back().width(), 320);
+    EXPECT_GE(left.back().pitch_bytes(), 320);
+  }
+  std::vector<StereoFeatures> got;
+  for (int i = 0; i < 5; ++i) {
+    if (frontend.pending() == 3) got.push_back(frontend.collect_stereo());
+    left[i % 3].assign(in.left[i].view());
+    right[i % 3].assign(in.right[i].view());
+    frontend.submit_stereo(left[i % 3], right[i % 3]);
+  }
+  while (frontend.pending() > 0) got.push_back(frontend.collect_stereo());
+  ASSERT_EQ(got.size(), 5u);
+  for (int i = 0; i < 5; ++i)
+    expect_same(reference.detect_stereo(in.left[i].view(), in.right[i].view()), got[i],
+                "input images, frame " + std::to_string(i));
+
+  // Mono as well, and the input's own view reads back what was assigned.
+  frontend.submit(left[0]);
+  expect_same(reference.detect(left[0].view()), frontend.collect(), "mono input image");
+  EXPECT_EQ(0, std::memcmp(left[0].view().row(17), in.left[3].view().row(17), 320));
+}
+
+TEST(FrontendInFlight, ForeignOrMisfitInputImagesAreRefused) {
+  cpu::CpuBackend backend(1);
+  Frontend a(backend, FrontendSettings{}, 128, 96);
+  Frontend b(backend, FrontendSettings{}, 128, 96);
+  InputImage mine = a.make_input_image();
+  InputImage theirs = b.make_input_image();
+  try {
+    a.submit(theirs);
+    FAIL() << "another Frontend's input image was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("not made by this Frontend"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(a.submit_stereo(mine, theirs), std::invalid_argument);
+  InputImage moved = std::move(mine);
+  EXPECT_THROW(a.submit(mine), std::invalid_argument);  // NOLINT(bugprone-use-after-move): the point
+  EXPECT_EQ(a.pending(), 0);
+  const Image small = test::textured_image(64, 48, 1);
+  EXPECT_THROW(moved.assign(small.view()), std::invalid_argument);
+  a.submit(moved);
+  EXPECT_TRUE(a.collect().keypoints.empty()) << "a zero-filled input has no corners";
+}
+
 TEST(FrontendInFlight, MisuseIsAClearError) {
   cpu::CpuBackend backend(1);
   const Image img = test::textured_image(128, 96, 3);

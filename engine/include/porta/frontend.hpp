@@ -57,6 +57,32 @@ struct StereoFeatures {
   int num_matches() const;
 };
 
+/// An image of one Frontend's size in its backend's host memory for asynchronous transfers (pinned
+/// on cuda), with the pyramid's level-0 row pitch: submitting it copies nothing on the host, the
+/// device reads it directly. Made by Frontend::make_input_image(); write the pixels through row().
+/// It must not change until the frame that read it has been collected.
+class InputImage {
+ public:
+  InputImage() = default;
+  InputImage(InputImage&&) noexcept = default;
+  InputImage& operator=(InputImage&&) noexcept = default;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int pitch_bytes() const { return pitch_; }
+  std::uint8_t* row(int y) { return buffer_->data() + static_cast<std::ptrdiff_t>(y) * pitch_; }
+  const std::uint8_t* row(int y) const { return buffer_->data() + static_cast<std::ptrdiff_t>(y) * pitch_; }
+  ImageView view() const { return ImageView{buffer_ ? buffer_->data() : nullptr, width_, height_, pitch_}; }
+  /// Copies `image` (same size) in, row by row.
+  void assign(const ImageView& image);
+
+ private:
+  friend class Frontend;
+  std::unique_ptr<HostBuffer> buffer_;
+  const void* owner_ = nullptr;  // the Frontend that made it
+  int width_ = 0, height_ = 0, pitch_ = 0;
+};
+
 struct FrontendOptions {
   bool describe = true;        ///< orientation, blur and descriptors; off = detection only
   bool profile_stages = false; ///< synchronize between stages to time each one
@@ -85,6 +111,13 @@ class Frontend {
   void submit(const ImageView& image);
   /// Enqueues a rectified pair (both copied before returning), as submit().
   void submit_stereo(const ImageView& left, const ImageView& right);
+  /// As above without a host copy: the device reads the input images directly, so they must stay
+  /// unchanged until this frame is collected. std::invalid_argument for an image this Frontend did
+  /// not make.
+  void submit(const InputImage& image);
+  void submit_stereo(const InputImage& left, const InputImage& right);
+  /// A zero-filled image of this Frontend's size for the submits above.
+  InputImage make_input_image();
   /// The oldest pending frame, which must have come from submit() (std::logic_error when none is
   /// pending or it is a pair). Waits for it.
   Features collect();
@@ -106,7 +139,12 @@ class Frontend {
  private:
   struct Side;  // device state for one camera
   struct Slot;  // one frame in flight: two sides, matches, the queues it runs on
-  void run_side(Slot& slot, Side& side, const ImageView& image);
+  /// `image` (copied into the side's own input) or else `input` (read in place) is the source.
+  void run_side(Slot& slot, Side& side, const ImageView* image, const InputImage* input);
+  void submit_pair(const ImageView* left, const InputImage* left_input, const ImageView* right,
+                   const InputImage* right_input);
+  void submit_one(const ImageView* image, const InputImage* input);
+  void check_input(const InputImage& input, const char* what) const;
   void enqueue_downloads(Side& side);
   Features collect_side(Slot& slot, Side& side);
   Slot& begin_submit(bool stereo);
