@@ -136,26 +136,28 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
   frontend_options.in_flight = row.in_flight;
   Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
   const bool stereo = row.mode == BenchMode::stereo;
-  // Pinned input: a ring of in_flight images per camera, filled before timing with the first
-  // frames (as a camera's DMA would fill them); frame i reads ring entry i % in_flight.
-  std::vector<InputImage> ring_left, ring_right;
+  // Pinned input: every distinct input image in an InputImage of its own, filled before timing (as
+  // a camera's DMA would fill them); frame i reads image i % count, the same images as the copy rows.
+  // The device only reads them, so frames in flight may share one.
+  std::vector<InputImage> pinned_left, pinned_right;
   if (row.pinned_input) {
-    for (int i = 0; i < row.in_flight; ++i) {
-      ring_left.push_back(frontend.make_input_image());
-      ring_left.back().assign(in.left[static_cast<std::size_t>(i) % in.left.size()].view());
-      if (!stereo) continue;
-      ring_right.push_back(frontend.make_input_image());
-      ring_right.back().assign(in.right[static_cast<std::size_t>(i) % in.right.size()].view());
+    for (const Image& image : in.left) {
+      pinned_left.push_back(frontend.make_input_image());
+      pinned_left.back().assign(image.view());
+    }
+    for (const Image& image : in.right) {
+      if (!stereo) break;
+      pinned_right.push_back(frontend.make_input_image());
+      pinned_right.back().assign(image.view());
     }
   }
   auto submit = [&](std::size_t frame) {  // returns the µs it took
     const Image& left = in.left[frame % in.left.size()];
-    const std::size_t ring = frame % static_cast<std::size_t>(row.in_flight);
     const Clock::time_point t0 = Clock::now();
     if (row.pinned_input && stereo)
-      frontend.submit_stereo(ring_left[ring], ring_right[ring]);
+      frontend.submit_stereo(pinned_left[frame % in.left.size()], pinned_right[frame % in.right.size()]);
     else if (row.pinned_input)
-      frontend.submit(ring_left[ring]);
+      frontend.submit(pinned_left[frame % in.left.size()]);
     else if (stereo)
       frontend.submit_stereo(left.view(), in.right[frame % in.right.size()].view());
     else
@@ -325,9 +327,9 @@ const char* const kTimingNote =
     "wall time of one Frontend submit + collect (detect / detect_stereo): upload, every kernel, "
     "synchronisation, download of keypoints, descriptors and matches; rows BACKEND/N: throughput with N "
     "frames in flight, the interval between consecutive frames' results (each still uploaded, "
-    "processed and downloaded); rows +pin: the images already lie in pinned input images (filled before "
-    "timing, as a camera writes its frames), so no host copy per frame, the upload is the device's own "
-    "transfer";
+    "processed and downloaded); rows +pin: the same images already lie in pinned input images (filled "
+    "before timing, as a camera writes its frames), so no host copy per frame; the upload is the device's "
+    "own transfer";
 const char* const kPeerNote =
     "cv::ORB on the CPU, nfeatures = our mean keypoints per image in the same cell, scale 1.2, FAST "
     "threshold 20, Harris score, patch 31; stereo = detectAndCompute on both images + "

@@ -28,8 +28,8 @@ struct BenchOptions {
   /// with several queues.
   std::vector<int> in_flight = {1};
   /// How images reach the Frontend: false = submit(ImageView), copied on the host into its pinned
-  /// staging; true = a ring of `in_flight` InputImages filled once before timing (as a camera
-  /// writes its frames there), read by the device in place. Both may be listed.
+  /// staging; true = the same images in InputImages filled once before timing (as a camera writes
+  /// its frames there), read by the device in place. Both may be listed.
   std::vector<bool> pinned_input = {false};
   int frames = 200;    ///< timed frames per cell
   int warmup = 20;     ///< untimed frames before them

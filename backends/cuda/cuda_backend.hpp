@@ -212,7 +212,9 @@ class CudaBackend final : public Backend {
   /// throws: an error is kept and thrown by the next download() or synchronize().
   void quiesce_before_free() noexcept;
 
-  static constexpr std::size_t kMaxGraphs = 64;
+  /// Frames in flight multiply the segments (each slot's buffers, each pinned input image): room
+  /// for 16 slots x 3 segments x a few input images.
+  static constexpr std::size_t kMaxGraphs = 256;
   static constexpr std::size_t kMaxSeen = 4096;  ///< segment hashes remembered for kRepeat
 
  private:
