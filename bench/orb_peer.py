@@ -541,7 +541,8 @@ def ratios(ours, peer_rows):
             continue
         net = peer["median_us"] - peer.get("python_overhead_us", 0.0)
         in_flight = row.get("in_flight", 1)  # > 1: our throughput with that many frames in flight
-        label = row["backend"] if in_flight == 1 else f"{row['backend']}/{in_flight}"
+        label = row["backend"] + (f"/{in_flight}" if in_flight > 1 else "") + \
+            ("+pin" if row.get("input") == "pinned" else "")
         out.append({"backend": label, "in_flight": in_flight, "resolution": row["resolution"], "levels": row["levels"],
                     "mode": row["mode"], "median_us": row["median_us"], "peer_median_us": peer["median_us"],
                     "speedup_vs_peer": peer["median_us"] / row["median_us"],
