@@ -292,6 +292,7 @@ void CudaBackend::sync_queue(Queue& q, const char* where) {
   check(cudaStreamSynchronize(q.stream), "cudaStreamSynchronize",
         std::string(where) + "; the failure may come from any kernel enqueued since the last synchronize()");
   q.arena_busy = false;  // everything the queue was given has run
+  q.may_run = false;
 }
 
 void CudaBackend::quiesce_before_free() noexcept {
@@ -431,7 +432,10 @@ void CudaBackend::synchronize() {
   throw_deferred_error();
   activate();
   flush_all();
-  for (Queue& q : queues_) sync_queue(q, "in synchronize()");
+  // Only queues given work since their last wait: a Frontend uses a few of the 16, and stage
+  // profiling synchronizes after every stage.
+  for (Queue& q : queues_)
+    if (q.may_run) sync_queue(q, "in synchronize()");
 }
 
 void CudaBackend::use_queue(int queue) {
@@ -623,6 +627,7 @@ void CudaBackend::flush(int index) {
   const bool used_arena = q.arena_used > 0;
   q.arena_used = 0;
   ++stats_.segments;
+  q.may_run = true;
   auto mark_arena = [&] {
     if (!used_arena) return;
     q.arena_busy = true;

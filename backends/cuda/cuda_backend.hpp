@@ -234,6 +234,7 @@ class CudaBackend final : public Backend {
     std::size_t arena_bytes = 0;
     std::size_t arena_used = 0;
     bool arena_busy = false;
+    bool may_run = false;  // work was submitted since the last host wait: synchronize() waits for it
     // Pinned download staging (downloads wait, so it is free again when download() returns).
     std::uint8_t* readback = nullptr;
     std::size_t readback_bytes = 0;
