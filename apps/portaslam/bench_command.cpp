@@ -56,6 +56,16 @@ struct FrameResult {
   int matches = 0;
 };
 
+// Linear interpolation between closest ranks of a sorted sample (numpy's default); 0 when empty.
+double percentile_of(const std::vector<double>& sorted, double p) {
+  if (sorted.empty()) return 0.0;
+  const double rank = p / 100.0 * static_cast<double>(sorted.size() - 1);
+  const auto lo = static_cast<std::size_t>(rank);
+  const std::size_t hi = std::min(lo + 1, sorted.size() - 1);
+  return sorted[lo] + (rank - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
+}
+double median_of(const std::vector<double>& sorted) { return percentile_of(sorted, 50); }
+
 struct Row {
   Row(std::string backend_name, Resolution cell_size, int cell_levels, BenchMode cell_mode, int frames_in_flight = 1,
       bool pinned = false)
@@ -76,26 +86,14 @@ struct Row {
   int peer_nfeatures = 0;
   std::string error;  // why this row has no numbers (a backend that failed the cell), else empty
 
-  // Linear interpolation between closest ranks (numpy's default).
-  double percentile(double p) const {
-    const double rank = p / 100.0 * static_cast<double>(us.size() - 1);
-    const auto lo = static_cast<std::size_t>(rank);
-    const std::size_t hi = std::min(lo + 1, us.size() - 1);
-    return us[lo] + (rank - static_cast<double>(lo)) * (us[hi] - us[lo]);
-  }
+  double percentile(double p) const { return percentile_of(us, p); }
   double median() const { return percentile(50); }
-  /// "cuda", or "cuda/4" for a row with 4 frames in flight.
+  /// "cuda", "cuda/4" with 4 frames in flight, "cuda/4+pin" with pinned input images.
   std::string label() const {
     return backend + (in_flight > 1 ? "/" + std::to_string(in_flight) : "") + (pinned_input ? "+pin" : "");
   }
   double frames_per_s() const { return 1e6 / median(); }
 };
-
-double median_of(const std::vector<double>& sorted) {
-  if (sorted.empty()) return 0.0;
-  const std::size_t n = sorted.size();
-  return n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
-}
 
 template <typename TimedCall>  // FrameResult(std::size_t frame)
 void measure(Row& row, int warmup, int frames, TimedCall&& call) {

@@ -438,10 +438,20 @@ void CudaBackend::synchronize() {
     if (q.may_run) sync_queue(q, "in synchronize()");
 }
 
+namespace {
+
+// Queue numbers are checked against all kMaxQueues even with streams off (queue_count() 1), where
+// every queue is stream 0: a Frontend built before set_streams_enabled(false) keeps working.
+void check_cuda_queue(int queue, const char* call) {
+  if (queue < 0 || queue >= CudaBackend::kMaxQueues)
+    throw BackendError(std::string("cuda: ") + call + "(" + std::to_string(queue) + "): queues are 0 to " +
+                       std::to_string(CudaBackend::kMaxQueues - 1));
+}
+
+}  // namespace
+
 void CudaBackend::use_queue(int queue) {
-  if (queue < 0 || queue >= kMaxQueues)
-    throw BackendError("cuda: use_queue(" + std::to_string(queue) + "): queues are 0 to " +
-                       std::to_string(kMaxQueues - 1));
+  check_cuda_queue(queue, "use_queue");
   if (!streams_enabled_ || queue == current_) return;
   activate();
   flush(current_);  // the queue being left starts running while the host records the next one
@@ -449,9 +459,7 @@ void CudaBackend::use_queue(int queue) {
 }
 
 void CudaBackend::queue_wait(int other) {
-  if (other < 0 || other >= kMaxQueues)
-    throw BackendError("cuda: queue_wait(" + std::to_string(other) + "): queues are 0 to " +
-                       std::to_string(kMaxQueues - 1));
+  check_cuda_queue(other, "queue_wait");
   if (!streams_enabled_ || other == current_) return;
   activate();
   Queue& o = queues_[static_cast<std::size_t>(other)];
@@ -464,9 +472,7 @@ void CudaBackend::queue_wait(int other) {
 }
 
 void CudaBackend::finish_queue(int queue) {
-  if (queue < 0 || queue >= kMaxQueues)
-    throw BackendError("cuda: finish_queue(" + std::to_string(queue) + "): queues are 0 to " +
-                       std::to_string(kMaxQueues - 1));
+  check_cuda_queue(queue, "finish_queue");
   throw_deferred_error();
   activate();
   const int q = streams_enabled_ ? queue : 0;

@@ -27,6 +27,12 @@ void check_host_range(const HostBuffer& buffer, std::size_t offset, std::size_t 
                        ") is outside the host buffer of " + std::to_string(buffer.size_bytes()) + " bytes");
 }
 
+void Backend::check_queue_index(int queue, const char* call) const {
+  if (queue < 0 || queue >= queue_count())
+    throw BackendError(name() + ": " + call + "(" + std::to_string(queue) + "): queues are 0 to " +
+                       std::to_string(queue_count() - 1));
+}
+
 std::unique_ptr<HostBuffer> Backend::allocate_host(std::size_t bytes) {
   return std::make_unique<PlainHostBuffer>(bytes);
 }

@@ -106,6 +106,44 @@ TEST(SyncBuffer, GrowsWithoutShrinkingAndKeepsContents) {
   EXPECT_GE(buf.capacity(), 1000u);
 }
 
+// The queue and asynchronous-transfer calls of an in-order backend (the HAL's defaults): queue 0
+// only, copies at once, every bad number or range a BackendError naming the call.
+TEST(HalQueues, InOrderBackendHasQueueZeroAndCopiesAtOnce) {
+  cpu::CpuBackend backend(1);
+  EXPECT_EQ(backend.queue_count(), 1);
+  backend.use_queue(0);
+  backend.queue_wait(0);
+  backend.finish_queue(0);
+  auto message_of = [](auto&& call) {
+    try {
+      call();
+    } catch (const BackendError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message_of([&] { backend.use_queue(1); }), "cpu: use_queue(1): queues are 0 to 0");
+  EXPECT_EQ(message_of([&] { backend.queue_wait(-1); }), "cpu: queue_wait(-1): queues are 0 to 0");
+  EXPECT_EQ(message_of([&] { backend.finish_queue(2); }), "cpu: finish_queue(2): queues are 0 to 0");
+
+  auto device = backend.allocate(16);
+  auto host = backend.allocate_host(16);
+  ASSERT_EQ(host->size_bytes(), 16u);
+  for (std::size_t i = 0; i < 16; ++i) EXPECT_EQ(host->data()[i], 0) << "zero-filled";
+  for (std::size_t i = 0; i < 16; ++i) host->data()[i] = static_cast<std::uint8_t>(i + 1);
+  backend.upload_async(*device, 4, *host, 0, 8);
+  auto back = backend.allocate_host(16);
+  backend.download_async(*device, 0, *back, 2, 12);
+  backend.finish_queue(0);
+  const std::uint8_t want[16] = {0, 0, 0, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 0, 0};
+  EXPECT_EQ(0, std::memcmp(back->data(), want, 16));
+
+  EXPECT_EQ(message_of([&] { backend.upload_async(*device, 0, *host, 10, 8); }),
+            "cpu: upload_async: range [10, +8) is outside the host buffer of 16 bytes");
+  EXPECT_EQ(message_of([&] { backend.download_async(*device, 0, *back, 17, 0); }),
+            "cpu: download_async: range [17, +0) is outside the host buffer of 16 bytes");
+}
+
 TEST(Registry, ListsEveryKnownBackendAndCpuIsAvailable) {
   const auto list = BackendRegistry::instance().list();
   ASSERT_EQ(list.size(), 4u);

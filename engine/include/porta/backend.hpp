@@ -145,14 +145,14 @@ class Backend {
 
   /// How many queues use_queue() accepts (1 for a backend that runs everything in order).
   virtual int queue_count() const { return 1; }
-  /// Sends later calls to queue `queue` (0 <= queue < queue_count()).
-  virtual void use_queue(int queue) { (void)queue; }
+  /// Sends later calls to queue `queue` (0 <= queue < queue_count(); BackendError otherwise).
+  virtual void use_queue(int queue) { check_queue_index(queue, "use_queue"); }
   /// Later work on the current queue waits for everything submitted to queue `other` so far.
-  virtual void queue_wait(int other) { (void)other; }
+  virtual void queue_wait(int other) { check_queue_index(other, "queue_wait"); }
   /// Waits on the host until everything submitted to `queue` has run, asynchronous downloads into
   /// host buffers included. Errors of that work surface here.
   virtual void finish_queue(int queue) {
-    (void)queue;
+    check_queue_index(queue, "finish_queue");
     synchronize();
   }
 
@@ -228,6 +228,10 @@ class Backend {
                                 const Buffer& queries, const Buffer& query_descriptors,
                                 int num_queries, const std::vector<std::int32_t>& scales_q16,
                                 Buffer& results) = 0;
+
+ protected:
+  /// BackendError "<name>: <call>(q): queues are 0 to N-1" unless 0 <= queue < queue_count().
+  void check_queue_index(int queue, const char* call) const;
 };
 
 }  // namespace porta
