@@ -23,6 +23,10 @@ std::string run_usage();
 int demo_command(const std::vector<std::string>& args);
 std::string demo_usage();
 
+/// `portaslam map info FILE`: describes and checks a saved map file (slam/map_file.hpp).
+int map_command(const std::vector<std::string>& args);
+std::string map_usage();
+
 /// Usage text of `portaslam features` (also shown by `portaslam features --help`).
 std::string features_usage();
 

@@ -36,6 +36,9 @@ const char* const kUsage =
 #if PORTA_APPS_HAVE_DEMO
   "  demo       render a short stereo sequence along a built-in street loop and run SLAM on it\n"
 #endif
+#if PORTA_APPS_HAVE_MAP
+  "  map        `map info FILE`: describe and check a saved map file\n"
+#endif
   "  help       show this text (also: portaslam --help); `portaslam help COMMAND` for details\n"
     "\n"
     "Examples:\n"
@@ -79,6 +82,12 @@ int help(const std::vector<std::string>& args) {
     return 0;
   }
 #endif
+#if PORTA_APPS_HAVE_MAP
+  if (!args.empty() && args[0] == "map") {
+    std::cout << porta::app::map_usage();
+    return 0;
+  }
+#endif
 #if PORTA_APPS_HAVE_EVAL
   if (!args.empty() && args[0] == "eval") {
     std::cout << porta::app::eval_usage();
@@ -114,6 +123,9 @@ int main(int argc, char** argv) {
 #endif
 #if PORTA_APPS_HAVE_DEMO
   if (command == "demo") return porta::app::demo_command(rest);
+#endif
+#if PORTA_APPS_HAVE_MAP
+  if (command == "map") return porta::app::map_command(rest);
 #endif
   std::cerr << "portaslam: unknown command '" << command << "'\n\n" << kUsage;
   return 2;

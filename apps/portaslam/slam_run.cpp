@@ -10,9 +10,11 @@
 #include <map>
 #include <memory>
 #include <thread>
+#include <unistd.h>
 #include <vector>
 
 #include "cli_args.hpp"
+#include "loop_report.hpp"
 #include "porta/registry.hpp"
 #include "porta/slam/evaluation.hpp"
 #include "porta/slam/settings_file.hpp"
@@ -66,6 +68,9 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   const bool paced = options.rate > 0.0;
   settings.mapping_thread_idle_priority = paced;
   settings.mapping_yields_to_tracking = paced;
+  settings.loop_closing = options.loop_closing && !options.localization;
+  settings.localization_only = options.localization;
+  settings.global_bundle_adjustment = options.global_ba;
   settings.validate();
   return settings;
 }
@@ -85,6 +90,21 @@ void ensure_folder(const std::string& folder) {
   }
 }
 
+/// The folder a file will be written into must exist and take files: checked before a long run.
+void check_writable_folder_of(const std::string& file) {
+  const fs::path parent = fs::path(file).parent_path().empty() ? fs::path(".") : fs::path(file).parent_path();
+  std::error_code error;
+  if (!fs::is_directory(parent, error)) {
+    throw CliError("cannot write '" + file + "': the folder '" + parent.string() + "' does not exist");
+  }
+  if (fs::is_directory(file, error)) throw CliError("cannot write '" + file + "': it is a folder");
+  const fs::path probe = parent / (".portaslam-write-test-" + std::to_string(::getpid()));
+  std::ofstream test(probe);
+  if (!test) throw CliError("cannot write '" + file + "': the folder '" + parent.string() + "' is not writable");
+  test.close();
+  fs::remove(probe, error);
+}
+
 }  // namespace
 
 SlamRunSummary run_slam(const SlamRunOptions& options) {
@@ -98,6 +118,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       options.count == 0 ? dataset->size() : std::min(dataset->size(), options.first + options.count);
   const slam::SlamSettings settings = make_settings(options, *dataset);
   ensure_folder(options.out);
+  if (options.localization && options.load_map.empty()) {
+    throw CliError("--localization tracks on a saved map: give it with --load-map FILE");
+  }
+  if (!options.save_map.empty()) check_writable_folder_of(options.save_map);  // before the run, not after
 
   BackendOptions backend_options;
   backend_options.device = options.device;
@@ -116,12 +140,25 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
   std::fflush(stdout);
 
+  double summary_map_load_ms = 0.0;
   slam::System system(settings, *backend, options.mode);
+  if (!options.load_map.empty()) {
+    const auto load_start = std::chrono::steady_clock::now();
+    system.load_map(options.load_map);
+    summary_map_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
+    std::lock_guard<std::mutex> lock(system.map().mutex);
+    std::printf("map       %s: %zu keyframes, %zu map points, loaded in %.0f ms%s\n", options.load_map.c_str(),
+                system.map().num_keyframes(), system.map().num_points(), summary_map_load_ms,
+                options.localization ? "; localisation only (nothing is added)" : "");
+    std::fflush(stdout);
+  }
   const std::size_t total = end - options.first;
   const std::size_t progress_every = std::max<std::size_t>(1, total / 20);
   SlamRunSummary summary;
+  summary.map_load_ms = summary_map_load_ms;
   slam::TrackingState previous = slam::TrackingState::not_initialized;
   std::string waiting_reason;
+  std::vector<std::size_t> relocalised_frames;
   const auto run_start = std::chrono::steady_clock::now();
   // As fast as possible, the next pair is read (and for EuRoC rectified) while the current one is
   // processed. Paced like a camera, it is read after: a camera delivers decoded images, so reading
@@ -151,6 +188,11 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
         std::fprintf(stderr, "frame %zu: tracking LOST: %s\n", i, result.lost_reason.c_str());
       }
     }
+    if (result.relocalised) {
+      ++summary.relocalisations;
+      relocalised_frames.push_back(i);
+      std::fprintf(stderr, "frame %zu: %s\n", i, result.lost_reason.c_str());
+    }
     if (result.state == slam::TrackingState::not_initialized) waiting_reason = result.lost_reason;
     previous = result.state;
     if (!options.quiet && (summary.frames % progress_every == 0 || i + 1 == end)) {
@@ -162,12 +204,19 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
         keyframes = system.map().num_keyframes();
         points = system.map().num_points();
       }
-      std::fprintf(stderr, "frame %zu/%zu  %.1f frames/s  %s  inliers %d  keyframes %zu  map points %zu\n",
+      std::fprintf(stderr,
+                   "frame %zu/%zu  %.1f frames/s  %s  inliers %d  keyframes %zu  map points %zu  loops %zu  "
+                   "relocalisations %zu\n",
                    summary.frames, total, summary.frames / std::max(seconds, 1e-9), slam::to_string(result.state),
-                   result.matches_local_map, keyframes, points);
+                   result.matches_local_map, keyframes, points, system.loop_closer().loops_closed(),
+                   summary.relocalisations);
     }
   }
   system.finish();
+  if (!options.save_map.empty()) {
+    system.save_map(options.save_map);
+    std::printf("map       saved to %s\n", options.save_map.c_str());
+  }
 
   const slam::Trajectory trajectory = system.trajectory();
   const std::string tum_path = (fs::path(options.out) / "trajectory_tum.txt").string();
@@ -224,6 +273,12 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                 summary.late_frames, summary.frames);
   }
 
+  const LoopReport loops =
+      report_loop_closing(system.loop_closer(), options.loop_closing, options.first, relocalised_frames);
+  summary.loops_detected = loops.detected;
+  summary.loops_closed = loops.closed;
+  summary.global_ba_runs = loops.global_ba_runs;
+
   if (!trajectory.empty()) {
     double farthest = 0.0;
     const Eigen::Vector3d start = trajectory.poses.front().pose.translation();
@@ -247,6 +302,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                     summary.path_length_m);
       }
       std::printf("\n");
+      if (summary.frames > summary.tracked) {
+        std::printf("WARNING: %zu of %zu frames have no pose (lost or before initialisation) and are not in the ATE\n",
+                    summary.frames - summary.tracked, summary.frames);
+      }
       char text[256];
       std::snprintf(text, sizeof text,
                     "{\"poses\": %zu, \"rmse_m\": %.6f, \"median_m\": %.6f, \"max_m\": %.6f, \"path_length_m\": %.3f}",
@@ -275,7 +334,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     first = false;
   }
   json << "\n  },\n  \"rate\": " << options.rate << ",\n  \"late_frames\": " << summary.late_frames
-       << ",\n  \"ate\": " << ate_json << "\n}\n";
+       << ",\n  " << loops.json << ",\n  \"ate\": " << ate_json << "\n}\n";
   return summary;
 }
 
@@ -296,7 +355,13 @@ std::string slam_run_options_usage() {
          "  --json FILE         summary JSON (default <out>/summary.json)\n"
          "  --quiet             no progress lines\n"
          "  --rate R            hand frames over at R x the recorded frame rate, as a camera would\n"
-         "                      (1 = real time); default 0 = as fast as possible\n";
+         "                      (1 = real time); default 0 = as fast as possible\n"
+         "  --no-loop-closing   no loop detection or correction (visual odometry with local BA;\n"
+         "                      relocalisation still works)\n"
+         "  --no-global-ba      close loops without the global bundle adjustment after each\n"
+         "  --save-map FILE     write the map at the end (versioned binary; see portaslam map info)\n"
+         "  --load-map FILE     start on a saved map: the first frame relocalises in it, mapping goes on\n"
+         "  --localization      with --load-map: track and relocalise on the map, add nothing to it\n";
 }
 
 bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, SlamRunOptions& options) {
@@ -340,6 +405,16 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     if (!(options.rate >= 0.0) || !std::isfinite(options.rate)) {
       throw CliError("--rate must be a finite number >= 0 (1 = the recorded frame rate, 0 = as fast as possible)");
     }
+  } else if (option == "--save-map") {
+    options.save_map = cursor.value(option);
+  } else if (option == "--load-map") {
+    options.load_map = cursor.value(option);
+  } else if (option == "--localization" || option == "--localisation") {
+    options.localization = true;
+  } else if (option == "--no-loop-closing") {
+    options.loop_closing = false;
+  } else if (option == "--no-global-ba") {
+    options.global_ba = false;
   } else if (option == "--quiet") {
     options.quiet = true;
   } else {

@@ -28,6 +28,11 @@ struct SlamRunOptions {
   /// than (its time - the first time) / rate after the start, as a camera at rate x its frame
   /// rate would deliver it. 0 = as fast as possible.
   double rate = 0.0;
+  bool loop_closing = true;       ///< --no-loop-closing: odometry with local BA only
+  bool global_ba = true;          ///< --no-global-ba: no global bundle adjustment after a loop
+  std::string save_map;           ///< --save-map FILE: the map at the end of the run
+  std::string load_map;           ///< --load-map FILE: continue on a saved map
+  bool localization = false;      ///< --localization: track on the loaded map, add nothing
 };
 
 /// What a run measured, for callers that check it (demo, tests).
@@ -37,6 +42,8 @@ struct SlamRunSummary {
   double ate_rmse_m = 0.0, path_length_m = 0.0;
   double median_frame_ms = 0.0;
   std::size_t late_frames = 0;    ///< with a rate: frames that took longer than their interval
+  std::size_t loops_detected = 0, loops_closed = 0, relocalisations = 0, global_ba_runs = 0;
+  double map_load_ms = 0.0;
 };
 
 /// Runs and reports. Throws CliError / DatasetError / SettingsFileError / BackendError with a

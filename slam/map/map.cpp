@@ -3,23 +3,13 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <set>
+#include <stdexcept>
+#include <string>
 
 namespace porta::slam {
-
-int hamming_distance(const Descriptor& a, const Descriptor& b) {
-  int distance = 0;
-  for (std::size_t i = 0; i < a.bytes.size(); i += 8) {
-    std::uint64_t x = 0, y = 0;
-    for (int k = 0; k < 8; ++k) {
-      x |= static_cast<std::uint64_t>(a.bytes[i + k]) << (8 * k);
-      y |= static_cast<std::uint64_t>(b.bytes[i + k]) << (8 * k);
-    }
-    distance += std::popcount(x ^ y);
-  }
-  return distance;
-}
 
 // ---- MapPoint -------------------------------------------------------------------------------------
 
@@ -29,6 +19,14 @@ MapPoint::MapPoint(std::uint64_t id_in, const Eigen::Vector3d& position_in, KeyF
       position(position_in),
       reference(reference_in),
       first_keyframe_id(reference_in ? reference_in->id : 0),
+      first_frame_id(first_frame_id_in) {}
+
+MapPoint::MapPoint(std::uint64_t id_in, const Eigen::Vector3d& position_in, KeyFrame* reference_in,
+                   std::uint64_t first_keyframe_id_in, std::uint64_t first_frame_id_in)
+    : id(id_in),
+      position(position_in),
+      reference(reference_in),
+      first_keyframe_id(first_keyframe_id_in),
       first_frame_id(first_frame_id_in) {}
 
 int MapPoint::num_observations() const {
@@ -188,6 +186,34 @@ MapPoint* Map::add_point(const Eigen::Vector3d& position, KeyFrame* reference, s
   return points_.back().get();
 }
 
+namespace {
+
+/// The empty slot at `id` (grown as needed), or std::invalid_argument naming what holds it.
+template <class T>
+std::unique_ptr<T>& free_slot(std::vector<std::unique_ptr<T>>& slots, std::uint64_t id, const char* what) {
+  if (id >= slots.size()) slots.resize(static_cast<std::size_t>(id) + 1);
+  if (slots[id] != nullptr) {
+    throw std::invalid_argument(std::string("Map: cannot restore ") + what + " " + std::to_string(id) +
+                                ": the id is taken");
+  }
+  return slots[id];
+}
+
+}  // namespace
+
+KeyFrame* Map::restore_keyframe(std::uint64_t id, const Frame& frame) {
+  std::unique_ptr<KeyFrame>& slot = free_slot(keyframes_, id, "keyframe");
+  slot = std::make_unique<KeyFrame>(id, frame);
+  return slot.get();
+}
+
+MapPoint* Map::restore_point(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference,
+                             std::uint64_t first_keyframe_id, std::uint64_t first_frame_id) {
+  std::unique_ptr<MapPoint>& slot = free_slot(points_, id, "map point");
+  slot = std::make_unique<MapPoint>(id, position, reference, first_keyframe_id, first_frame_id);
+  return slot.get();
+}
+
 void Map::add_observation(MapPoint* point, KeyFrame* keyframe, int feature) {
   point->observations[keyframe] = feature;
   keyframe->points[static_cast<std::size_t>(feature)] = point;
@@ -234,7 +260,8 @@ void Map::replace(MapPoint* point, MapPoint* into) {
 }
 
 void Map::set_bad(KeyFrame* keyframe) {
-  if (keyframe->id == 0 || keyframe->bad) return;
+  if (keyframe->id == 0 || keyframe->bad || !keyframe->loop_edges.empty()) return;
+  if (keyframe->parent != nullptr) keyframe->T_c_parent = keyframe->T_cw * keyframe->parent->T_cw.inverse();
   for (const auto& [other, weight] : keyframe->connections) other->erase_connection(keyframe);
   for (MapPoint* point : keyframe->points) {
     if (point != nullptr) erase_observation(point, keyframe);
@@ -277,7 +304,7 @@ void Map::set_bad(KeyFrame* keyframe) {
 std::vector<KeyFrame*> Map::keyframes() const {
   std::vector<KeyFrame*> out;
   for (const auto& keyframe : keyframes_) {
-    if (!keyframe->bad) out.push_back(keyframe.get());
+    if (keyframe != nullptr && !keyframe->bad) out.push_back(keyframe.get());
   }
   return out;
 }
@@ -285,7 +312,7 @@ std::vector<KeyFrame*> Map::keyframes() const {
 std::vector<MapPoint*> Map::points() const {
   std::vector<MapPoint*> out;
   for (const auto& point : points_) {
-    if (!point->bad) out.push_back(point.get());
+    if (point != nullptr && !point->bad) out.push_back(point.get());
   }
   return out;
 }

@@ -20,6 +20,7 @@ void SlamSettings::validate() const {
   require(min_tracked_inliers >= 3, "min_tracked_inliers must be >= 3, got " + std::to_string(min_tracked_inliers));
   require(max_frames_between_keyframes >= 1,
           "max_frames_between_keyframes must be >= 1, got " + std::to_string(max_frames_between_keyframes));
+  place_recognition.validate();
 }
 
 }  // namespace porta::slam

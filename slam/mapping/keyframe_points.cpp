@@ -1,19 +1,10 @@
 // Local mapping steps 1 and 2: linking a new keyframe's points and culling recent points
 // (ORB-SLAM2's ProcessNewKeyFrame and MapPointCulling); see mapping_steps.hpp.
-#include <bit>
-#include <cstring>
-
 #include "mapping_steps.hpp"
 
 namespace porta::slam::mapping {
 
-int descriptor_distance(const Descriptor& a, const Descriptor& b) {
-  std::uint64_t wa[4], wb[4];
-  std::memcpy(wa, a.bytes.data(), sizeof(wa));
-  std::memcpy(wb, b.bytes.data(), sizeof(wb));
-  return std::popcount(wa[0] ^ wb[0]) + std::popcount(wa[1] ^ wb[1]) + std::popcount(wa[2] ^ wb[2]) +
-         std::popcount(wa[3] ^ wb[3]);
-}
+int descriptor_distance(const Descriptor& a, const Descriptor& b) { return hamming_distance(a, b); }
 
 std::vector<MapPoint*> link_keyframe_points(KeyFrame* keyframe, const ScalePyramid& pyramid) {
   std::vector<MapPoint*> created;

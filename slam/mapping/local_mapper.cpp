@@ -213,6 +213,7 @@ void LocalMapper::process(KeyFrame* keyframe) {
   }
   times.total_ns = elapsed_ns(start) - (paused_ns_ - paused_at_start);
   times_.push_back(times);
+  if (keyframe_processed_) keyframe_processed_(keyframe);
 }
 
 }  // namespace porta::slam

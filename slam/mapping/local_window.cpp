@@ -11,22 +11,18 @@
 namespace porta::slam::mapping {
 namespace {
 
-/// What the optimiser works on, copied under the lock, with the map objects each entry stands for.
-struct BaProblem {
-  std::vector<KeyFrame*> keyframes;  // local (free) ones first, then fixed ones; each in id order
-  std::vector<MapPoint*> points;     // id order
-  std::vector<optim::BaKeyframe> ba_keyframes;
-  std::vector<Eigen::Vector3d> positions;
-  std::vector<optim::BaObservation> observations;
-  std::vector<int> observation_feature;  // per observation: the keyframe's feature index
-};
-
 BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) {
-  BaProblem problem;
   std::set<KeyFrame*, ById> local{keyframe};
   for (const auto& [neighbour, weight] : keyframe->connections) {
     if (!neighbour->bad) local.insert(neighbour);
   }
+  return collect_bundle_adjustment(local, pyramid);
+}
+
+}  // namespace
+
+BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, const ScalePyramid& pyramid) {
+  BaProblem problem;
   std::set<MapPoint*, ById> points;
   for (KeyFrame* kf : local) {
     for (MapPoint* point : kf->points) {
@@ -79,16 +75,16 @@ BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) 
   return problem;
 }
 
-}  // namespace
-
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                             const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
                             const std::function<void()>& between_iterations) {
   BaProblem problem;
+  std::uint64_t generation = 0;
   {
     std::lock_guard lock(map.mutex);
     if (keyframe->bad) return 0;
     problem = collect_local_window(keyframe, pyramid);
+    generation = map.correction_generation;
   }
   if (problem.points.empty() || problem.observations.empty()) return 0;
 
@@ -100,6 +96,8 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
       settings.camera, problem.ba_keyframes, problem.positions, problem.observations, options);
 
   std::lock_guard lock(map.mutex);
+  // A loop correction moved the map meanwhile: this window's result is relative to the old map.
+  if (map.correction_generation != generation) return 0;
   int erased = 0;
   for (const std::size_t o : result.outlier_observations) {
     MapPoint* point = problem.points[problem.observations[o].point];
@@ -150,7 +148,7 @@ int cull_redundant_keyframes(KeyFrame* keyframe, double close_depth_m) {
       }
       if (observers >= kObserversNeeded) ++redundant;
     }
-    if (counted > 0 && redundant > 0.9 * counted) {
+    if (counted > 0 && redundant > 0.9 * counted && candidate->loop_edges.empty()) {
       Map::set_bad(candidate);
       ++culled;
     }

@@ -9,10 +9,12 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <set>
 #include <vector>
 
 #include "porta/slam/frame.hpp"
 #include "porta/slam/map.hpp"
+#include "porta/slam/optim/local_bundle_adjustment.hpp"
 #include "porta/slam/slam_settings.hpp"
 
 namespace porta::slam::mapping {
@@ -65,6 +67,22 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                             const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
                             const std::function<void()>& between_iterations = {});
+
+/// A bundle adjustment copied out of the map under the lock, with the map objects each entry
+/// stands for (local and global bundle adjustment).
+struct BaProblem {
+  std::vector<KeyFrame*> keyframes;  // free ones first, then fixed ones; each in id order
+  std::vector<MapPoint*> points;     // id order
+  std::vector<optim::BaKeyframe> ba_keyframes;
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<optim::BaObservation> observations;
+  std::vector<int> observation_feature;  // per observation: the keyframe's feature index
+};
+
+/// Caller holds the lock: `free` keyframes, every good point they see, and the other keyframes
+/// observing those points as fixed ones; keyframe 0 is always fixed (without any fixed keyframe
+/// the oldest free one is held, to fix the gauge).
+BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& free, const ScalePyramid& pyramid);
 
 /// Step 6 (caller holds the lock): culls the covisible keyframes of `keyframe` whose close points
 /// are at least 90% seen by 3 other keyframes at the same or a finer scale. Returns the count.

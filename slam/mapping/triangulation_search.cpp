@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "mapping_steps.hpp"
+#include "porta/slam/feature_matching.hpp"
 #include "porta/slam/optim/chi2.hpp"
 #include "porta/slam/optim/triangulation.hpp"
 
@@ -27,11 +28,7 @@ namespace {
 
 constexpr double kEpipolarChi2 = 3.84;  // chi-square, 1 DoF, 95%
 
-struct Match {
-  int feature1 = -1;
-  int feature2 = -1;
-  int distance = 0;
-};
+using Match = FeatureMatch;
 
 struct NewPoint {
   int feature1 = -1;
@@ -65,44 +62,6 @@ Eigen::Matrix3d fundamental_matrix(const SE3& T_1w, const SE3& T_2w, const Stere
   K_inv << 1.0 / camera.fx, 0.0, -camera.cx / camera.fx, 0.0, 1.0 / camera.fy, -camera.cy / camera.fy, 0.0,
       0.0, 1.0;
   return K_inv.transpose() * skew(T_12.translation()) * T_12.linear() * K_inv;
-}
-
-/// Keeps the matches whose orientation change falls in the three most populated histogram bins
-/// (the second and third only when they hold at least a tenth of the first), as ORB-SLAM2.
-void keep_consistent_rotations(std::vector<Match>& matches, const FrameFeatures& f1,
-                               const FrameFeatures& f2) {
-  std::array<int, kRotationBins> counts{};
-  std::vector<int> bins(matches.size());
-  constexpr double kTwoPi = 6.283185307179586;
-  for (std::size_t m = 0; m < matches.size(); ++m) {
-    double change = static_cast<double>(f1.angle_rad[static_cast<std::size_t>(matches[m].feature1)]) -
-                    static_cast<double>(f2.angle_rad[static_cast<std::size_t>(matches[m].feature2)]);
-    change = std::fmod(change, kTwoPi);
-    if (change < 0.0) change += kTwoPi;
-    bins[m] = static_cast<int>(std::lround(change / kTwoPi * kRotationBins)) % kRotationBins;
-    ++counts[static_cast<std::size_t>(bins[m])];
-  }
-  std::array<int, 3> top{-1, -1, -1};  // bin indices, most populated first (ties: smaller bin)
-  for (int b = 0; b < kRotationBins; ++b) {
-    const int c = counts[static_cast<std::size_t>(b)];
-    if (c == 0) continue;
-    for (std::size_t k = 0; k < top.size(); ++k) {
-      if (top[k] < 0 || c > counts[static_cast<std::size_t>(top[k])]) {
-        for (std::size_t j = top.size() - 1; j > k; --j) top[j] = top[j - 1];
-        top[k] = b;
-        break;
-      }
-    }
-  }
-  if (top[0] < 0) return;
-  const double max_count = counts[static_cast<std::size_t>(top[0])];
-  if (top[1] >= 0 && counts[static_cast<std::size_t>(top[1])] < 0.1 * max_count) top[1] = top[2] = -1;
-  if (top[2] >= 0 && counts[static_cast<std::size_t>(top[2])] < 0.1 * max_count) top[2] = -1;
-  std::vector<Match> kept;
-  for (std::size_t m = 0; m < matches.size(); ++m) {
-    if (bins[m] == top[0] || bins[m] == top[1] || bins[m] == top[2]) kept.push_back(matches[m]);
-  }
-  matches = std::move(kept);
 }
 
 /// The free features of keyframe 2 laid out for the epipolar scan: everything the inner loop

@@ -140,7 +140,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     }
     if (residual_blocks == 0) return false;
     ceres::Solver::Options solver_options = detail::quiet_solver_options(iterations, options.num_threads);
-    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    solver_options.linear_solver_type = options.sparse ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;
     if (options.stop_flag != nullptr || options.between_iterations) solver_options.callbacks.push_back(&stop_callback);
     ceres::Solve(solver_options, &problem, summary);
@@ -163,7 +163,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     if (solved) result.initial_cost = summary.initial_cost;
   }
   // Stage 2: without the outliers of stage 1 and without the robust loss.
-  if (solved) {
+  if (solved && options.second_iterations > 0) {
     if (summary.termination_type == ceres::USER_SUCCESS || stop_requested()) {
       result.stopped = true;
     } else {
@@ -175,6 +175,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
       }
     }
   }
+  if (solved && options.second_iterations <= 0) result.stopped = summary.termination_type == ceres::USER_SUCCESS;
   if (solved) result.final_cost = summary.final_cost;
 
   double sum_sq = 0.0;

@@ -23,8 +23,14 @@ System::System(const SlamSettings& settings, Backend& backend, RunMode mode)
   frontend_ = std::make_unique<Frontend>(backend_, settings_.frontend, settings_.camera.width,
                                          settings_.camera.height, options);
   mapper_ = std::make_unique<LocalMapper>(settings_, map_);
-  tracker_ = std::make_unique<Tracker>(settings_, map_, *mapper_, backend_, frontend_->tables());
-  if (mode_ == RunMode::realtime) mapper_->start();
+  loop_closer_ = std::make_unique<LoopCloser>(settings_, map_);
+  mapper_->set_keyframe_processed([closer = loop_closer_.get()](KeyFrame* keyframe) { closer->insert_keyframe(keyframe); });
+  tracker_ = std::make_unique<Tracker>(settings_, map_, *mapper_, backend_, frontend_->tables(), loop_closer_.get());
+  // Localisation only: nothing is added to the map, so neither thread has work.
+  if (mode_ == RunMode::realtime && !settings_.localization_only) {
+    loop_closer_->start();
+    mapper_->start();
+  }
 }
 
 System::~System() { finish(); }
@@ -33,9 +39,11 @@ void System::finish() {
   if (finished_) return;
   finished_ = true;
   if (mode_ == RunMode::realtime) {
-    mapper_->stop();
+    mapper_->stop();  // drains its queue into loop closing
+    loop_closer_->stop();
   } else {
     mapper_->process_all();
+    loop_closer_->process_all();
   }
 }
 
@@ -85,11 +93,49 @@ TrackingResult System::process(const StereoPair& pair) {
   records_.push_back(record);
 
   // Deterministic mode: the map is complete for this keyframe before the next frame is tracked.
-  if (mode_ == RunMode::deterministic && result.keyframe_inserted) mapper_->process_all();
+  if (mode_ == RunMode::deterministic && result.keyframe_inserted) {
+    mapper_->process_all();
+    loop_closer_->process_all();
+  }
   times.total_ns = elapsed_ns(start);
   frame_times_.push_back(times);
   results_.push_back(result);
   return result;
+}
+
+MapFileContents System::load_map(const std::string& path) {
+  if (!records_.empty()) throw std::logic_error("System::load_map: frames were processed already");
+  MapFileContents contents = slam::load_map(path, map_);
+  check_map_camera(contents, settings_.camera, path);
+  const FrontendSettings& mine = settings_.frontend;
+  const FrontendSettings& theirs = contents.settings.frontend;
+  if (mine.levels != theirs.levels || mine.scale_factor != theirs.scale_factor) {
+    throw MapFileError("map file '" + path + "' was made with " + std::to_string(theirs.levels) +
+                       " pyramid levels, scale factor " + std::to_string(theirs.scale_factor) + "; this run uses " +
+                       std::to_string(mine.levels) + " levels, scale factor " + std::to_string(mine.scale_factor) +
+                       " (its descriptors and scales would not compare)");
+  }
+  if (contents.place_database.empty()) {
+    PlaceDatabase database(settings_.place_recognition);
+    std::lock_guard lock(map_.mutex);
+    for (const KeyFrame* k : map_.keyframes()) database.add(k->id, k->features->descriptors);
+    loop_closer_->set_database(std::move(database));
+  } else {
+    try {
+      loop_closer_->set_database(PlaceDatabase::deserialize(contents.place_database));
+    } catch (const PlaceDatabaseError& e) {
+      throw MapFileError("map file '" + path + "': section 'PLDB': " + e.what());
+    }
+  }
+  tracker_->relocalise_next("a map was loaded from '" + path + "': relocalising against it");
+  return contents;
+}
+
+void System::save_map(const std::string& path) const {
+  if (mode_ == RunMode::realtime && !finished_ && !settings_.localization_only) {
+    throw std::logic_error("System::save_map: call finish() first (the mapping threads are running)");
+  }
+  slam::save_map(path, map_, settings_, loop_closer_->serialize_database());
 }
 
 Trajectory System::trajectory() const {
@@ -97,9 +143,15 @@ Trajectory System::trajectory() const {
   Trajectory trajectory;
   for (const FrameRecord& record : records_) {
     if (!record.tracked) continue;
-    // A culled reference keyframe keeps the last pose it had, which stays a good anchor for the
-    // frames that referred to it (no loop closing moves keyframes far after culling).
-    const SE3 T_cw = record.T_c_ref * record.reference->T_cw;
+    // A culled reference keyframe keeps the last pose it had; the frames that referred to it
+    // follow its good ancestor instead, which loop closing keeps correcting.
+    SE3 T_c_ref = record.T_c_ref;
+    const KeyFrame* reference = record.reference;
+    while (reference->bad && reference->parent != nullptr) {
+      T_c_ref = T_c_ref * reference->T_c_parent;
+      reference = reference->parent;
+    }
+    const SE3 T_cw = T_c_ref * reference->T_cw;
     trajectory.poses.push_back({record.time_s, T_cw.inverse()});
   }
   return trajectory;

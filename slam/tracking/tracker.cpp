@@ -13,6 +13,8 @@
 #include <utility>
 
 #include "frame_search.hpp"
+#include "porta/slam/loop_closer.hpp"
+#include "relocalisation.hpp"
 #include "porta/slam/projection_matcher.hpp"
 
 namespace porta::slam {
@@ -40,6 +42,7 @@ constexpr int kMinPoseInliers = 10;
 constexpr double kLocalMapWindow = 1.0;  // th of the local-map search (3 after relocalisation)
 constexpr std::size_t kMaxLocalKeyframes = 80;
 constexpr std::size_t kCovisiblesPerKeyframe = 10;
+constexpr std::size_t kRelocalisationNeighbours = 5;  // tried first when tracking was just lost
 
 std::int64_t elapsed_ns(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - since)
@@ -77,10 +80,12 @@ void check_features(const FrameFeatures& f, int levels) {
 }  // namespace
 
 struct Tracker::Impl {
-  Impl(const SlamSettings& s, Map& m, LocalMapper& lm, Backend& backend, const FrontendTables& tables)
+  Impl(const SlamSettings& s, Map& m, LocalMapper& lm, Backend& backend, const FrontendTables& tables,
+       LoopCloser* lc)
       : settings(s),
         map(m),
         mapper(lm),
+        loop_closer(lc),
         pyramid(tables.settings.levels, tables.settings.scale_factor),
         scales_q16(tables.scales_q16),
         geometry{settings.camera, pyramid, scales_q16},
@@ -90,6 +95,7 @@ struct Tracker::Impl {
   bool track_motion_model(Frame& frame, Frame& last, TrackingResult& result);
   bool track_reference_keyframe(Frame& frame, const Frame& last, TrackingResult& result);
   bool track_local_map(Frame& frame, TrackingResult& result);
+  bool relocalise(Frame& frame, TrackingResult& result);
   void update_last_frame(Frame& last) const;
   void update_local_keyframes(Frame& frame);
   void update_local_points();
@@ -100,6 +106,7 @@ struct Tracker::Impl {
   const SlamSettings settings;
   Map& map;
   LocalMapper& mapper;
+  LoopCloser* loop_closer;  // its database finds relocalisation candidates; null: no relocalisation
   const ScalePyramid pyramid;
   const std::vector<std::int32_t> scales_q16;
   const tracking::SearchGeometry geometry;
@@ -399,11 +406,47 @@ KeyFrame* Tracker::Impl::create_keyframe(Frame& frame) {
   return keyframe;
 }
 
+// ---- Relocalisation -----------------------------------------------------------------------------
+
+bool Tracker::Impl::relocalise(Frame& frame, TrackingResult& result) {
+  const std::string before = lost_reason.empty() ? "" : lost_reason + "; ";
+  if (loop_closer == nullptr) {
+    lost_reason = before + "relocalisation is off (no place-recognition database)";
+    return false;
+  }
+  std::fill(frame.points.begin(), frame.points.end(), nullptr);
+  // The last reference keyframe and its best neighbours come first: after fast motion or a weak
+  // frame the camera is still near them, and descriptor matching with EPnP needs no pose prior,
+  // unlike the windowed searches of the motion model and the reference-keyframe step.
+  std::vector<KeyFrame*> candidates;
+  if (KeyFrame* reference = good_or_ancestor(reference_keyframe); reference != nullptr) {
+    candidates.push_back(reference);
+    for (KeyFrame* k : reference->best_covisibles(kRelocalisationNeighbours)) candidates.push_back(k);
+  }
+  for (KeyFrame* k : loop_closer->relocalisation_candidates(*frame.features)) {
+    if (std::find(candidates.begin(), candidates.end(), k) == candidates.end()) candidates.push_back(k);
+  }
+  const tracking::Relocalisation found = tracking::relocalise(frame, candidates, geometry);
+  if (!found.ok) {
+    lost_reason = before + "relocalisation: " + found.reason;
+    return false;
+  }
+  result.matches_motion = found.inliers;
+  // Said even on success: the user learns that (and why) tracking was lost for a moment.
+  result.lost_reason = "relocalised at frame " + std::to_string(frame.id) + " against keyframe " +
+                       std::to_string(found.keyframe->id) + " (" + std::to_string(found.inliers) + " inliers)" +
+                       (lost_reason.empty() ? std::string() : " after: " + lost_reason);
+  reference_keyframe = found.keyframe;
+  frame.reference_keyframe = found.keyframe;
+  has_velocity = false;
+  return true;
+}
+
 // ---- Tracker ------------------------------------------------------------------------------------
 
 Tracker::Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Backend& backend,
-                 const FrontendTables& tables)
-    : impl_(std::make_unique<Impl>(settings, map, mapper, backend, tables)) {
+                 const FrontendTables& tables, LoopCloser* loop_closer)
+    : impl_(std::make_unique<Impl>(settings, map, mapper, backend, tables, loop_closer)) {
   settings.validate();
   if (tables.scales_q16.size() != static_cast<std::size_t>(tables.settings.levels)) {
     throw std::invalid_argument("Tracker: the frontend tables have " +
@@ -414,6 +457,11 @@ Tracker::Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Ba
 
 Tracker::~Tracker() = default;
 
+void Tracker::relocalise_next(const std::string& why) {
+  state_ = TrackingState::lost;
+  impl_->lost_reason = why;
+}
+
 TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
                               std::shared_ptr<const FrameFeatures> features) {
   if (!features)
@@ -421,12 +469,6 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   Impl& t = *impl_;
   check_features(*features, t.pyramid.levels);
   TrackingResult result;
-  if (state_ == TrackingState::lost) {
-    result.state = TrackingState::lost;
-    result.lost_reason = t.lost_reason;
-    return result;
-  }
-
   Frame frame(frame_id, time_s, std::move(features), t.settings.camera);
   const std::lock_guard<std::mutex> lock(t.map.mutex);
   const auto start = std::chrono::steady_clock::now();
@@ -443,41 +485,50 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
     return result;
   }
 
+  // Lost now, or still lost: the message says which, where and why, relocalisation included.
+  const bool was_lost = state_ == TrackingState::lost;
   auto lose = [&](const char* step) {
     state_ = TrackingState::lost;
-    t.lost_reason =
-        "tracking lost at frame " + std::to_string(frame_id) + " (" + step + "): " + t.lost_reason +
-        "; relocalisation is not implemented, frames are not tracked until the pipeline re-initialises";
+    t.lost_reason = (was_lost ? "still lost at frame " : "tracking lost at frame ") + std::to_string(frame_id) +
+                    " (" + step + "): " + t.lost_reason;
     result.state = TrackingState::lost;
     result.lost_reason = t.lost_reason;
     return result;
   };
 
-  // 1-2: motion model, else the reference keyframe.
+  // 1-2: motion model, else the reference keyframe; lost: relocalisation.
   t.update_last_frame(last_frame_);
   frame.reference_keyframe = t.reference_keyframe;
   t.lost_reason.clear();
   bool ok = false;
-  if (t.has_velocity) {
-    ok = t.track_motion_model(frame, last_frame_, result);
-    result.used_motion_model = ok;
+  if (!was_lost) {
+    if (t.has_velocity) {
+      ok = t.track_motion_model(frame, last_frame_, result);
+      result.used_motion_model = ok;
+    }
+    if (!ok) ok = t.track_reference_keyframe(frame, last_frame_, result);
   }
-  if (!ok) ok = t.track_reference_keyframe(frame, last_frame_, result);
+  if (!ok) {
+    ok = t.relocalise(frame, result);
+    result.relocalised = ok;
+  }
   result.track_motion_ns = elapsed_ns(start);
-  if (!ok) return lose("motion model and reference keyframe");
+  if (!ok) return lose(was_lost ? "relocalisation" : "motion model, reference keyframe and relocalisation");
 
   // 3: local map.
   const auto local_start = std::chrono::steady_clock::now();
   ok = t.track_local_map(frame, result);
   result.track_local_map_ns = elapsed_ns(local_start);
   if (!ok) return lose("local map");
+  // A velocity needs two consecutive tracked frames.
+  const bool had_last_pose = !was_lost && !result.relocalised;
   frame.has_pose = true;
-  t.velocity = frame.T_cw * last_frame_.T_cw.inverse();
-  t.has_velocity = true;
+  t.velocity = had_last_pose ? frame.T_cw * last_frame_.T_cw.inverse() : SE3::Identity();
+  t.has_velocity = had_last_pose;
 
   // 4: keyframe decision.
   const auto keyframe_start = std::chrono::steady_clock::now();
-  if (t.need_new_keyframe(frame)) {
+  if (!t.settings.localization_only && t.need_new_keyframe(frame)) {
     t.create_keyframe(frame);
     result.keyframe_inserted = true;
   }

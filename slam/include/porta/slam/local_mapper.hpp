@@ -12,6 +12,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -40,6 +41,10 @@ class LocalMapper {
   ~LocalMapper();  ///< stops the thread if running
   LocalMapper(const LocalMapper&) = delete;
   LocalMapper& operator=(const LocalMapper&) = delete;
+
+  /// Called with each keyframe once it is processed, in the mapping thread (realtime) or the
+  /// caller's (deterministic), without any lock held: the pipeline hands it to loop closing.
+  void set_keyframe_processed(std::function<void(KeyFrame*)> callback) { keyframe_processed_ = std::move(callback); }
 
   /// Queues a keyframe made by tracking (thread-safe; does not take Map::mutex). Interrupts a
   /// running bundle adjustment so that the new keyframe is processed soon (realtime mode).
@@ -97,6 +102,7 @@ class LocalMapper {
   bool tracking_busy_ = false;  ///< under queue_mutex_
   std::int64_t paused_ns_ = 0;  ///< time pause_point() waited (mapping thread only)
   std::thread thread_;
+  std::function<void(KeyFrame*)> keyframe_processed_;
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
   std::vector<MappingTimes> times_;
   std::uint64_t points_triangulated_ = 0;

@@ -15,7 +15,9 @@
 // so the same input gives the same map and trajectory in the deterministic mode.
 #pragma once
 
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -34,12 +36,22 @@ struct ById {
   }
 };
 
-/// Hamming distance of two 256-bit descriptors.
-int hamming_distance(const Descriptor& a, const Descriptor& b);
+/// Hamming distance of two 256-bit descriptors (four 64-bit words; the byte order does not matter
+/// for a count of differing bits). Inline: it is the inner loop of every descriptor search.
+inline int hamming_distance(const Descriptor& a, const Descriptor& b) {
+  std::uint64_t wa[4], wb[4];
+  std::memcpy(wa, a.bytes.data(), sizeof(wa));
+  std::memcpy(wb, b.bytes.data(), sizeof(wb));
+  return std::popcount(wa[0] ^ wb[0]) + std::popcount(wa[1] ^ wb[1]) + std::popcount(wa[2] ^ wb[2]) +
+         std::popcount(wa[3] ^ wb[3]);
+}
 
 class MapPoint {
  public:
   MapPoint(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t first_frame_id);
+  /// For a point read back from a map file: `first_keyframe_id` as saved (its keyframe may be gone).
+  MapPoint(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference,
+           std::uint64_t first_keyframe_id, std::uint64_t first_frame_id);
 
   const std::uint64_t id;
   Eigen::Vector3d position;
@@ -82,6 +94,12 @@ class KeyFrame {
   std::map<KeyFrame*, int, ById> connections;
   KeyFrame* parent = nullptr;  ///< spanning tree: the keyframe it shares most points with (at creation)
   std::map<KeyFrame*, int, ById> children;  ///< value unused (kept for ordered iteration)
+  /// Keyframes this one closed a loop with (both ways; value unused). Loop keyframes are never
+  /// culled: the essential graph needs the edge.
+  std::map<KeyFrame*, int, ById> loop_edges;
+  /// Set when the keyframe is culled: its pose relative to its parent then (T_cw * T_parent_w^-1),
+  /// so that frames that referred to it follow the parent through later corrections (ORB-SLAM2's Tcp).
+  SE3 T_c_parent = SE3::Identity();
 
   Eigen::Vector3d center() const { return T_cw.inverse().translation(); }
   /// Map points with at least `min_observations` observations (0: all good points).
@@ -101,9 +119,23 @@ class Map {
  public:
   /// Guards all map data (see the file comment).
   mutable std::mutex mutex;
+  /// Counts corrections that move the whole map (loop closing, global bundle adjustment write-back),
+  /// under `mutex`. Work computed on a copy (local bundle adjustment) is discarded when this changed
+  /// while it ran: writing it back would undo the correction.
+  std::uint64_t correction_generation = 0;
 
   KeyFrame* add_keyframe(const Frame& frame);
   MapPoint* add_point(const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t frame_id);
+
+  /// Restoring a saved map (map_file.hpp): the object is placed at index `id`, so that the ids saved
+  /// in the file stay valid. Ids that are not restored stay empty slots, which every list below
+  /// skips; add_keyframe / add_point then continue after the largest id. Throws
+  /// std::invalid_argument when `id` is taken. The caller bounds `id` (one pointer per slot).
+  KeyFrame* restore_keyframe(std::uint64_t id, const Frame& frame);
+  MapPoint* restore_point(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference,
+                          std::uint64_t first_keyframe_id, std::uint64_t first_frame_id);
+  /// True when nothing was ever added or restored (culled objects count: their ids are taken).
+  bool empty() const { return keyframes_.empty() && points_.empty(); }
 
   /// Links point and keyframe feature both ways.
   static void add_observation(MapPoint* point, KeyFrame* keyframe, int feature);
@@ -115,7 +147,8 @@ class Map {
   /// Merges `point` into `into` (duplicate fusion): observations move over, `point` goes bad.
   static void replace(MapPoint* point, MapPoint* into);
   /// Culls a keyframe: unlinks its points and covisibility edges and re-parents its children
-  /// (each to the connected keyframe it shares most points with). Keyframe 0 is never culled.
+  /// (each to the connected keyframe it shares most points with). Keyframe 0 and keyframes with
+  /// loop edges are never culled.
   static void set_bad(KeyFrame* keyframe);
 
   /// Good keyframes / points in id order.
@@ -126,8 +159,8 @@ class Map {
   KeyFrame* keyframe_by_id(std::uint64_t id) const;
 
  private:
-  std::vector<std::unique_ptr<KeyFrame>> keyframes_;  // index = id
-  std::vector<std::unique_ptr<MapPoint>> points_;     // index = id
+  std::vector<std::unique_ptr<KeyFrame>> keyframes_;  // index = id; null: an id not restored
+  std::vector<std::unique_ptr<MapPoint>> points_;     // index = id; null: an id not restored
 };
 
 }  // namespace porta::slam

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "porta/settings.hpp"
+#include "porta/slam/place_recognition.hpp"
 #include "porta/slam/stereo_camera.hpp"
 
 namespace porta::slam {
@@ -38,6 +39,17 @@ struct SlamSettings {
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
   bool mapping_yields_to_tracking = true;
+
+  /// Loop closing (loop_closer.hpp): loops are detected, verified and corrected. false: local
+  /// mapping only (the place-recognition database is still kept, for relocalisation).
+  bool loop_closing = true;
+  /// A global bundle adjustment over the whole map after each closed loop.
+  bool global_bundle_adjustment = true;
+  /// Localisation only (ORB-SLAM2's "only tracking"): frames are tracked against the map (a loaded
+  /// one) and relocalised when lost, but no keyframe or point is added and nothing is optimised.
+  bool localization_only = false;
+  /// The place-recognition database (descriptor tree leaf size, match distance).
+  PlaceRecognitionOptions place_recognition;
 
   double close_depth_m() const { return th_depth * camera.baseline_m; }
   /// Throws std::invalid_argument / SettingsError naming the bad field.

@@ -1,5 +1,6 @@
 // The whole stereo SLAM pipeline for one sequence: frontend on a compute backend, tracking, local
-// mapping (in a thread or deterministic), and the trajectory of every frame (DESIGN.md §6).
+// mapping and loop closing (each in a thread, or all in the caller's thread in the deterministic
+// mode), and the trajectory of every frame (DESIGN.md §6).
 #pragma once
 
 #include <cstdint>
@@ -10,7 +11,9 @@
 #include "porta/frontend.hpp"
 #include "porta/slam/dataset.hpp"
 #include "porta/slam/local_mapper.hpp"
+#include "porta/slam/loop_closer.hpp"
 #include "porta/slam/map.hpp"
+#include "porta/slam/map_file.hpp"
 #include "porta/slam/slam_settings.hpp"
 #include "porta/slam/tracker.hpp"
 
@@ -39,6 +42,15 @@ class System {
   /// destructor; call it before reading the final trajectory.
   void finish();
 
+  /// Loads a map saved by save_map() before the first frame (std::logic_error after it): the first
+  /// frame then relocalises against it, and mapping continues on it (or only tracks, with
+  /// settings.localization_only). Throws MapFileError for a bad file, or when the map's camera or
+  /// pyramid (levels, scale factor) differ from this System's. Returns the file's contents.
+  MapFileContents load_map(const std::string& path);
+  /// Writes the map and the place-recognition database (map_file.hpp), atomically. Call after
+  /// finish() in the realtime mode (std::logic_error otherwise): the threads must be done.
+  void save_map(const std::string& path) const;
+
   /// T_world_cam of every processed frame that was tracked, recomputed from its reference
   /// keyframe's current pose (so it reflects bundle adjustment), in frame order.
   Trajectory trajectory() const;
@@ -48,6 +60,8 @@ class System {
   const std::vector<FrameTimes>& frame_times() const { return frame_times_; }
   const std::vector<TrackingResult>& results() const { return results_; }
   const LocalMapper& mapper() const { return *mapper_; }
+  const LoopCloser& loop_closer() const { return *loop_closer_; }
+  LoopCloser& loop_closer() { return *loop_closer_; }
   const Map& map() const { return map_; }
 
  private:
@@ -63,6 +77,7 @@ class System {
   std::unique_ptr<Frontend> frontend_;
   Map map_;
   std::unique_ptr<LocalMapper> mapper_;
+  std::unique_ptr<LoopCloser> loop_closer_;
   std::unique_ptr<Tracker> tracker_;
   std::vector<FrameRecord> records_;
   std::vector<FrameTimes> frame_times_;

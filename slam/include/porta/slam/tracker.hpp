@@ -12,8 +12,11 @@
 //     check, then pose-only optimisation again.
 //  4. Keyframe decision (ORB-SLAM2's NeedNewKeyFrame incl. close/far stereo points); a new keyframe
 //     gets map points for its close stereo points and is handed to local mapping.
-// Tracking loss (too few inliers) is reported in the result and never silently continued: the next
-// frames report `lost` until the pipeline re-initialises (relocalisation is a later issue).
+// Tracking loss (too few inliers) is reported in the result and never silently continued. A lost
+// frame, and every frame after it until one succeeds, tries relocalisation (ORB-SLAM2's: the
+// place-recognition database's candidates, EPnP in RANSAC, pose optimisation, 50 inliers), then
+// the local map as usual. Relocalisation that keeps failing keeps the state `lost` (each result
+// says why); the map is never reset.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +32,8 @@
 
 namespace porta::slam {
 
+class LoopCloser;
+
 enum class TrackingState { not_initialized, ok, lost };
 const char* to_string(TrackingState state);
 
@@ -38,6 +43,7 @@ struct TrackingResult {
   KeyFrame* reference_keyframe = nullptr;
   bool keyframe_inserted = false;
   bool used_motion_model = false;    ///< false: reference-keyframe fallback (or initialisation)
+  bool relocalised = false;          ///< the pose came from relocalisation (the frame or the one before was lost)
   int matches_motion = 0;            ///< inliers after the first pose optimisation
   int matches_local_map = 0;         ///< inliers after local-map tracking
   std::string lost_reason;           ///< why tracking was lost, for the user
@@ -48,9 +54,10 @@ struct TrackingResult {
 
 class Tracker {
  public:
-  /// `backend` runs the projection-match kernel; `tables` are the frontend's (level scales).
+  /// `backend` runs the projection-match kernel; `tables` are the frontend's (level scales);
+  /// `loop_closer` (may be null: no relocalisation) holds the place-recognition database.
   Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Backend& backend,
-          const FrontendTables& tables);
+          const FrontendTables& tables, LoopCloser* loop_closer = nullptr);
   ~Tracker();
   Tracker(const Tracker&) = delete;
   Tracker& operator=(const Tracker&) = delete;
@@ -60,6 +67,9 @@ class Tracker {
   TrackingResult track(std::uint64_t frame_id, double time_s, std::shared_ptr<const FrameFeatures> features);
 
   TrackingState state() const { return state_; }
+  /// A map was loaded: the next frame relocalises against it instead of initialising a new map.
+  /// `why` goes into the lost reason until then.
+  void relocalise_next(const std::string& why);
   const Frame& last_frame() const { return last_frame_; }
 
  private:

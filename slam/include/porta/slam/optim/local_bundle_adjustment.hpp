@@ -3,7 +3,7 @@
 // see the points but lie outside the local window) still.
 //
 // Two stages, as ORB-SLAM2: `first_iterations` (5) of Levenberg-Marquardt with a Huber loss over all
-// observations; then every observation with chi2 above 5.991 (mono) / 7.815 (stereo), or whose point
+// observations; then (unless `second_iterations` is 0: global bundle adjustment) every observation with chi2 above 5.991 (mono) / 7.815 (stereo), or whose point
 // is not in front of its camera, is dropped, and `second_iterations` (10) more run without a robust
 // loss. Finally all observations (dropped ones too) are checked again by the same test at the
 // final estimate; those failing are returned so that the map can erase them. Points are eliminated
@@ -46,6 +46,9 @@ struct LocalBundleAdjustmentOptions {
   double chi2_mono = kChi2Mono95;
   double chi2_stereo = kChi2Stereo95;
   int num_threads = 1;
+  /// Sparse Schur elimination instead of dense: for global bundle adjustment, where the reduced
+  /// camera system of hundreds of keyframes is mostly zeros. The local window stays dense.
+  bool sparse = false;
   /// When set (e.g. by local mapping when a new keyframe arrives) the solver stops at its next
   /// iteration and the second stage is skipped; the outlier check still runs.
   const std::atomic<bool>* stop_flag = nullptr;
