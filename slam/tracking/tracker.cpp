@@ -520,8 +520,9 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   ok = t.track_local_map(frame, result);
   result.track_local_map_ns = elapsed_ns(local_start);
   if (!ok) return lose("local map");
-  // A velocity needs two consecutive tracked frames.
-  const bool had_last_pose = !was_lost && !result.relocalised;
+  // A velocity needs two consecutive tracked frames (a frame relocalised after its predecessor was
+  // tracked has one: the motion model failed, not the previous pose).
+  const bool had_last_pose = !was_lost;
   frame.has_pose = true;
   t.velocity = had_last_pose ? frame.T_cw * last_frame_.T_cw.inverse() : SE3::Identity();
   t.has_velocity = had_last_pose;
@@ -544,6 +545,7 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   KeyFrame* reference = good_or_ancestor(frame.reference_keyframe);
   frame.reference_keyframe = reference;
   t.T_last_ref = reference != nullptr ? frame.T_cw * reference->T_cw.inverse() : SE3::Identity();
+  state_ = TrackingState::ok;
   result.state = TrackingState::ok;
   result.T_cw = frame.T_cw;
   result.reference_keyframe = reference;

@@ -53,3 +53,9 @@ add_test(NAME cli.run_rendered_room_euroc_layout
          COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/room-euroc
                  -P ${CMAKE_CURRENT_LIST_DIR}/slam_rendered_room.cmake)
 set_tests_properties(cli.run_rendered_room_euroc_layout PROPERTIES LABELS cli TIMEOUT 300)
+
+# Save, inspect, load, localise; bad map inputs refused (slam_map_session.cmake).
+add_test(NAME cli.run_map_save_load_localise
+         COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/map-session
+                 -P ${CMAKE_CURRENT_LIST_DIR}/slam_map_session.cmake)
+set_tests_properties(cli.run_map_save_load_localise PROPERTIES LABELS cli TIMEOUT 600)

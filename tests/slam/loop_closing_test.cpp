@@ -145,6 +145,7 @@ TEST(Relocalisation, CoveredLensThenTheSameViewAgainRelocalisesAtOnce) {
   for (int k = 41; k < 60; ++k, ++id) {
     const TrackingResult& r = p.feed(id, test::observe(w, k, 27));
     ASSERT_EQ(r.state, TrackingState::ok) << "frame " << id << ": " << r.lost_reason;
+    EXPECT_FALSE(r.relocalised) << "frame " << id << ": tracked again, no relocalisation needed";
     EXPECT_LT(position_error_m(r.T_cw, w.T_cw[static_cast<std::size_t>(k)]), 0.05) << "frame " << id;
   }
 }
@@ -172,6 +173,9 @@ TEST(Relocalisation, KidnappedToAnEarlierPlaceRelocalisesThereWithinCentimetres)
     EXPECT_LT(position_error_m(r.T_cw, w.T_cw[static_cast<std::size_t>(k)]), 0.05) << "frame " << id;
   }
   EXPECT_TRUE(relocalised);
+  int relocalisations = 0;
+  for (const TrackingResult& r : p.results) relocalisations += r.relocalised ? 1 : 0;
+  EXPECT_EQ(relocalisations, 1) << "after relocalising, the motion model takes over again";
 }
 
 TEST(Relocalisation, WithoutALoopCloserTrackingStaysLostAndSaysWhy) {
