@@ -58,6 +58,9 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
     if (file.th_depth) settings.th_depth = *file.th_depth;
   }
   if (options.levels > 0) settings.frontend.levels = options.levels;
+  // Culling cells fit to the image size unless given (slam_settings.hpp, default_cell_size).
+  const int cell = options.cell > 0 ? options.cell : slam::default_cell_size(settings.camera.width, settings.camera.height);
+  settings.frontend.cell_width = settings.frontend.cell_height = cell;
   // Search the whole disparity range the scene can produce: from 0.5 m (or the image width).
   const int max_disparity = static_cast<int>(std::ceil(settings.camera.bf() / 0.5));
   settings.frontend.stereo_max_disparity =
@@ -131,9 +134,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   std::printf("dataset   %s\n", dataset->describe().c_str());
   std::printf("camera    %s\n", settings.camera.describe().c_str());
   std::printf("backend   %s on %s\n", backend->name().c_str(), backend->device_name().c_str());
-  std::printf("mode      %s, frames %zu..%zu, %d pyramid levels, scale %.2f, FAST threshold %d\n",
+  std::printf("mode      %s, frames %zu..%zu, %d pyramid levels, scale %.2f, FAST threshold %d, %d-px cells\n",
               options.mode == slam::RunMode::realtime ? "realtime" : "deterministic", options.first, end - 1,
-              settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold);
+              settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold,
+              settings.frontend.cell_width);
   if (options.rate > 0.0) {
     std::printf("playback  %.3gx the recorded frame rate (frames are handed over at their time stamps)\n",
                 options.rate);
@@ -352,6 +356,8 @@ std::string slam_run_options_usage() {
          "  --first N           first frame (default 0)\n"
          "  --frames N          number of frames (default: all)\n"
          "  --levels N          pyramid levels (default 8)\n"
+         "  --cell N            culling cell size in pixels (default: fit to the image, 32 at 1242x375,\n"
+         "                      17 at 640x194: sqrt(width * height / 455) in [8, 32])\n"
          "  --json FILE         summary JSON (default <out>/summary.json)\n"
          "  --quiet             no progress lines\n"
          "  --rate R            hand frames over at R x the recorded frame rate, as a camera would\n"
@@ -405,6 +411,9 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     if (!(options.rate >= 0.0) || !std::isfinite(options.rate)) {
       throw CliError("--rate must be a finite number >= 0 (1 = the recorded frame rate, 0 = as fast as possible)");
     }
+  } else if (option == "--cell") {
+    options.cell = parse_int(option, cursor.value(option));
+    if (options.cell < 1 || options.cell > 1024) throw CliError("--cell must be in [1, 1024] (pixels)");
   } else if (option == "--save-map") {
     options.save_map = cursor.value(option);
   } else if (option == "--load-map") {

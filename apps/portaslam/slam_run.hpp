@@ -22,6 +22,7 @@ struct SlamRunOptions {
   std::size_t first = 0;
   std::size_t count = 0;          ///< 0 = to the end
   int levels = 0;                 ///< 0 = the settings file's or the default (8)
+  int cell = 0;                   ///< culling cell size, 0 = slam::default_cell_size of the image
   std::string json;               ///< summary JSON path; empty = <out>/summary.json
   bool quiet = false;             ///< no progress lines
   /// Playback speed relative to the recorded frame times: each pair is handed to SLAM no earlier

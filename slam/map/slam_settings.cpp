@@ -1,10 +1,17 @@
 #include "porta/slam/slam_settings.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace porta::slam {
+
+int default_cell_size(int width, int height) {
+  constexpr double kKittiCells = 1242.0 * 375.0 / (32.0 * 32.0);  // 455 level-0 cells
+  const double area = static_cast<double>(std::max(width, 1)) * static_cast<double>(std::max(height, 1));
+  return std::clamp(static_cast<int>(std::lround(std::sqrt(area / kKittiCells))), 8, 32);
+}
 
 void SlamSettings::validate() const {
   camera.validate();

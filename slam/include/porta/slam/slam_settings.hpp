@@ -14,6 +14,13 @@ enum class RunMode {
   deterministic,  ///< local mapping runs to completion after each keyframe: same input, same bytes
 };
 
+/// The culling cell size (level 0, square) for an image of `width` x `height`: about as many
+/// level-0 cells as 32-px cells give a 1242x375 KITTI image (455), i.e. sqrt(W * H / 455) rounded,
+/// clamped to [8, 32]. 640x194 gets 17 px, 621x188 16 px, 752x480 28 px, 1242x375 32 px. Culling keeps
+/// one corner per cell, so smaller images need smaller cells for enough features to track (the
+/// paper's Tables VII and VIII fit the cell size to the resolution).
+int default_cell_size(int width, int height);
+
 struct SlamSettings {
   StereoCamera camera;
   FrontendSettings frontend;  ///< levels, scale factor, FAST threshold, cells, stereo search range
