@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "porta/slam/optim/pnp.hpp"
+#include "geometry_scene.hpp"
 #include "porta/slam/optim/ransac_random.hpp"
 
 namespace porta::slam::optim {
@@ -25,21 +26,9 @@ namespace {
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-StereoCamera kitti_camera() { return StereoCamera{1242, 375, 718.856, 718.856, 607.19, 185.22, 0.537}; }
-
-struct SceneRng {
-  SplitMix64 bits;
-  explicit SceneRng(std::uint64_t seed) : bits(seed) {}
-  double uniform(double lo, double hi) {  // 53 random mantissa bits, [lo, hi)
-    return lo + (hi - lo) * static_cast<double>(bits.next() >> 11) * 0x1.0p-53;
-  }
-  double gaussian() {  // Box-Muller
-    const double u1 = 1.0 - uniform(0.0, 1.0), u2 = uniform(0.0, 1.0);
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-  }
-};
-
-double deg(double degrees) { return degrees * std::numbers::pi / 180.0; }
+using test::deg;
+using test::kitti_camera;
+using test::SceneRng;
 
 // T_cw with a rotation of up to 30 degrees about a random axis and a few metres of translation.
 SE3 random_pose(SceneRng& rng) {
