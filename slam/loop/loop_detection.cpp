@@ -94,8 +94,18 @@ std::vector<KeyFrame*> loop_candidates(const Map& map, KeyFrame* keyframe, const
     min_score = std::min(min_score, it == score_of.end() ? 0.0 : it->second);
   }
   if (!any_neighbour) return {};
+  // A candidate whose neighbourhood already touches the keyframe's (a shared covisible keyframe) is
+  // no new loop: the map is joined there already (by an earlier loop), and correcting the keyframe's
+  // group would tear the keyframes both groups share away from the candidate's side.
+  const auto already_joined = [&](KeyFrame* k) {
+    for (const auto& [neighbour, weight] : k->connections) {
+      if (neighbour == keyframe || keyframe->connections.count(neighbour) != 0) return true;
+    }
+    return false;
+  };
   const std::vector<Scored> candidates = common_candidates(map, scores, [&](KeyFrame* k, const PlaceScore& s) {
-    return k != keyframe && keyframe->connections.count(k) == 0 && s.score >= min_score && s.matched > 0;
+    return k != keyframe && keyframe->connections.count(k) == 0 && s.score >= min_score && s.matched > 0 &&
+           !already_joined(k);
   });
   if (candidates.empty()) return {};
   return best_of_groups(candidates);

@@ -104,6 +104,10 @@ void for_each_setting(Settings& s, Visit&& visit) {
   visit("max_frames_between_keyframes", s.max_frames_between_keyframes);
   visit("mapping_thread_idle_priority", s.mapping_thread_idle_priority);
   visit("mapping_yields_to_tracking", s.mapping_yields_to_tracking);
+  visit("loop_closing", s.loop_closing);
+  visit("global_bundle_adjustment", s.global_bundle_adjustment);
+  visit("place_recognition.max_leaf_size", s.place_recognition.max_leaf_size);
+  visit("place_recognition.match_distance", s.place_recognition.match_distance);
 }
 
 /// SETT entry types (one byte before the value).

@@ -231,9 +231,11 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
     KeyFrame* other = neighbours[n];
     SE3 T_1w, T_2w;
     std::vector<int> free1, free2;
+    std::uint64_t generation = 0;
     {
       std::lock_guard lock(map.mutex);
       if (keyframe->bad || other->bad) continue;
+      generation = map.correction_generation;
       T_1w = keyframe->T_cw;
       T_2w = other->T_cw;
       free1 = free_features(*keyframe);
@@ -264,7 +266,8 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
     }
 
     std::lock_guard lock(map.mutex);
-    if (keyframe->bad || other->bad) continue;
+    // A loop correction moved the keyframes meanwhile: these points are in the old map's frame.
+    if (keyframe->bad || other->bad || map.correction_generation != generation) continue;
     for (const NewPoint& candidate : new_points) {
       const auto s1 = static_cast<std::size_t>(candidate.feature1);
       const auto s2 = static_cast<std::size_t>(candidate.feature2);

@@ -3,6 +3,9 @@
 // huge counts and ids and links to absent objects in re-checksummed sections; each error names the
 // file and the problem and leaves the target map empty. Also: a non-empty target map, another camera.
 #if PORTA_SLAM_BUILT
+#include <algorithm>
+#include <random>
+
 #include "map_file_scene.hpp"
 
 namespace porta::slam::mapping_test {
@@ -138,6 +141,33 @@ TEST_F(MapFile, HugeCountsAndIdsInARechecksummedSectionAreRefusedWithoutAllocati
   write_bytes(path("huge_id.pmap"), single);
   EXPECT_NE(load_error(path("huge_id.pmap")).find("keyframe id 1099511627776 is implausibly large"),
             std::string::npos);
+}
+
+TEST_F(MapFile, RandomEditsOfRechecksummedSectionsAreRefusedOrLoadNeverCrash) {
+  const std::string file = saved_scene();
+  const Bytes bytes = read_bytes(file);
+  const std::vector<MapFileSection> sections = read_map_info(file).sections;
+  std::mt19937 rng(11);
+  int refused = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const MapFileSection& s = sections[static_cast<std::size_t>(trial) % 4];  // CAMR SETT KFRM MPNT
+    Bytes edited = bytes;
+    const int edits = 1 + static_cast<int>(rng() % 4);
+    for (int e = 0; e < edits; ++e) {
+      // Half the edits hit the first 256 bytes of the payload: counts, ids and sizes live there.
+      const std::size_t span = trial % 2 == 0 ? std::min<std::size_t>(256, s.size) : s.size;
+      edited[s.offset + 12 + rng() % span] = static_cast<std::uint8_t>(rng());
+    }
+    rechecksum(edited, s);
+    write_bytes(path("edited.pmap"), edited);
+    Map map;
+    try {
+      load_map(path("edited.pmap"), map);
+    } catch (const MapFileError&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 100);  // most edits break something the loader checks
 }
 
 TEST_F(MapFile, LinksToObjectsNotInTheFileAreRefused) {
