@@ -42,7 +42,8 @@ constexpr int kMinPoseInliers = 10;
 constexpr double kLocalMapWindow = 1.0;  // th of the local-map search (3 after relocalisation)
 constexpr std::size_t kMaxLocalKeyframes = 80;
 constexpr std::size_t kCovisiblesPerKeyframe = 10;
-constexpr std::size_t kRelocalisationNeighbours = 5;  // tried first when tracking was just lost
+constexpr std::size_t kRelocalisationNeighbours = 5;
+constexpr int kMinInliersAfterRelocalisation = 50;  // ORB-SLAM2's bar for frames just relocalised  // tried first when tracking was just lost
 
 std::int64_t elapsed_ns(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - since)
@@ -116,6 +117,8 @@ struct Tracker::Impl {
   bool has_velocity = false;
   KeyFrame* reference_keyframe = nullptr;
   std::uint64_t last_keyframe_frame_id = 0;
+  std::uint64_t last_relocalisation_frame = 0;
+  bool any_relocalisation = false;
   SE3 T_last_ref = SE3::Identity();  // last frame relative to its reference keyframe
   int local_map_inliers = 0;
   std::vector<KeyFrame*> local_keyframes;
@@ -520,6 +523,20 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   ok = t.track_local_map(frame, result);
   result.track_local_map_ns = elapsed_ns(local_start);
   if (!ok) return lose("local map");
+  // Right after a relocalisation a wrong pose is the likeliest: ORB-SLAM2 asks for 50 local-map
+  // inliers for a while (one keyframe interval), not 30.
+  if (result.relocalised) {
+    t.last_relocalisation_frame = frame.id;
+    t.any_relocalisation = true;
+  }
+  if (t.any_relocalisation &&
+      frame.id < t.last_relocalisation_frame + static_cast<std::uint64_t>(t.settings.max_frames_between_keyframes) &&
+      result.matches_local_map < kMinInliersAfterRelocalisation) {
+    t.lost_reason = "local map: " + std::to_string(result.matches_local_map) + " inliers within " +
+                    std::to_string(t.settings.max_frames_between_keyframes) + " frames of a relocalisation (need " +
+                    std::to_string(kMinInliersAfterRelocalisation) + ")";
+    return lose("local map after relocalisation");
+  }
   // A velocity needs two consecutive tracked frames (a frame relocalised after its predecessor was
   // tracked has one: the motion model failed, not the previous pose).
   const bool had_last_pose = !was_lost;
