@@ -59,3 +59,32 @@ add_test(NAME cli.run_map_save_load_localise
          COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/map-session
                  -P ${CMAKE_CURRENT_LIST_DIR}/slam_map_session.cmake)
 set_tests_properties(cli.run_map_save_load_localise PROPERTIES LABELS cli TIMEOUT 600)
+
+# New run options and map inputs: bad values are refused with the option or file named.
+porta_cli_test(run_cell_zero EXIT 1 STDERR "--cell must be in \\[1, 1024\\] \\(pixels\\)" ARGS run --dataset kitti x --cell 0)
+porta_cli_test(run_cell_not_a_number EXIT 1 STDERR "option --cell expects" ARGS run --dataset kitti x --cell big)
+porta_cli_test(run_save_map_without_value EXIT 1 STDERR "option --save-map needs a value" ARGS run --dataset kitti x --save-map)
+porta_cli_test(run_load_map_without_value EXIT 1 STDERR "option --load-map needs a value" ARGS run --dataset kitti x --load-map)
+if(EXISTS ${PORTA_DATA_DIR}/euroc-v101-head)
+  porta_cli_test(run_load_map_missing EXIT 1 STDERR "map file 'no_such\\.pmap': cannot open: no such file"
+                 ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --load-map no_such.pmap --out bad-map)
+  porta_cli_test(run_load_map_empty EXIT 1 STDERR "map file 'empty\\.pmap': the file is empty"
+                 ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --load-map empty.pmap --out bad-map)
+  porta_cli_test(run_save_map_is_a_folder EXIT 1 STDERR "cannot write '\\.': it is a folder"
+                 ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --save-map . --out bad-map)
+endif()
+
+# The place-recognition bench: usage errors exit 2, a missing dataset exits 1, each saying why.
+if(TARGET porta_place_bench)
+  function(porta_place_bench_test name exit pattern)
+    add_test(NAME cli.${name}
+             COMMAND ${CMAKE_COMMAND} -DEXPECT_EXIT=${exit} -DEXPECT_STDOUT= "-DEXPECT_STDERR=${pattern}"
+                     -DEXPECT_FILE= -P ${porta_cli_checker} -- $<TARGET_FILE:porta_place_bench> ${ARGN}
+             WORKING_DIRECTORY ${porta_cli_dir})
+    set_tests_properties(cli.${name} PROPERTIES LABELS cli TIMEOUT 60)
+  endfunction()
+  porta_place_bench_test(place_bench_no_args 2 "no dataset folder given")
+  porta_place_bench_test(place_bench_bad_every 2 "bad value for --every: x" x --every x)
+  porta_place_bench_test(place_bench_zero_gap 2 "--every and --gap must be >= 1" x --gap 0)
+  porta_place_bench_test(place_bench_missing_dataset 1 "porta_place_bench: .*no_such_folder" no_such_folder)
+endif()
