@@ -7,15 +7,12 @@
 #include <stdexcept>
 
 #include "loop_steps.hpp"
+#include "porta/slam/elapsed.hpp"
 
 namespace porta::slam {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::int64_t elapsed_ns(Clock::time_point since) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - since).count();
-}
 
 }  // namespace
 

@@ -3,15 +3,9 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "porta/slam/elapsed.hpp"
+
 namespace porta::slam {
-
-namespace {
-
-std::int64_t elapsed_ns(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - since).count();
-}
-
-}  // namespace
 
 System::System(const SlamSettings& settings, Backend& backend, RunMode mode)
     : settings_(settings), mode_(mode), backend_(backend) {

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "frame_search.hpp"
+#include "porta/slam/elapsed.hpp"
 #include "porta/slam/loop_closer.hpp"
 #include "relocalisation.hpp"
 #include "porta/slam/projection_matcher.hpp"
@@ -44,11 +45,6 @@ constexpr std::size_t kMaxLocalKeyframes = 80;
 constexpr std::size_t kCovisiblesPerKeyframe = 10;
 constexpr std::size_t kRelocalisationNeighbours = 5;
 constexpr int kMinInliersAfterRelocalisation = 50;  // ORB-SLAM2's bar for frames just relocalised  // tried first when tracking was just lost
-
-std::int64_t elapsed_ns(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - since)
-      .count();
-}
 
 /// The keyframe itself, or its closest good ancestor when local mapping culled it.
 KeyFrame* good_or_ancestor(KeyFrame* keyframe) {
