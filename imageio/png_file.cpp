@@ -116,6 +116,15 @@ std::string conversion_of(const Layout& layout) {
 
 }  // namespace
 
+bool has_png_signature(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (!file) return false;
+  png_byte signature[kSignatureBytes];
+  const std::size_t got = std::fread(signature, 1, kSignatureBytes, file);
+  std::fclose(file);
+  return got == kSignatureBytes && png_sig_cmp(signature, 0, kSignatureBytes) == 0;
+}
+
 GrayPng read_png_gray(const std::string& path, int max_side) {
   Reader r;
   r.file = std::fopen(path.c_str(), "rb");

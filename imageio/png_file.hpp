@@ -42,6 +42,9 @@ struct GrayPng {
                            ///< color to gray"; empty when the file already was 8-bit gray
 };
 
+/// True when the file at `path` starts with the 8-byte PNG signature (false when unreadable).
+bool has_png_signature(const std::string& path);
+
 /// Reads a PNG file as 8-bit gray. Every PNG colour type and bit depth is accepted:
 ///  - 16-bit samples become round(v / 257) (OpenCV's convertTo(CV_8U, 1 / 257.0));
 ///  - 1-, 2- and 4-bit gray is expanded to 8 bits (0..255), a palette to its RGB colours;

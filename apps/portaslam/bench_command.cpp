@@ -22,6 +22,7 @@
 #include "bench_inputs.hpp"
 #include "bench_options.hpp"
 #include "cli_args.hpp"
+#include "output_paths.hpp"
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
 
@@ -484,14 +485,6 @@ std::vector<std::unique_ptr<Backend>> create_backends(const BenchOptions& option
   return backends;
 }
 
-void check_json_path(const std::string& path) {
-  if (path.empty()) return;
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
-    throw CliError("cannot write '" + path + "': folder '" + folder.string() + "' does not exist");
-}
-
 void progress(const Row& row, std::size_t done, std::size_t total, double seconds) {
   std::fprintf(stderr, "[%zu/%zu] %-10s %-9s levels %d %-7s ", done, total, row.label().c_str(),
                row.size.text().c_str(), row.levels, mode_name(row.mode));
@@ -544,7 +537,7 @@ void run_cell(Report& report, const std::vector<std::unique_ptr<Backend>>& backe
 }
 
 int run(const BenchOptions& options) {
-  check_json_path(options.json);
+  if (!options.json.empty()) check_output_file("--json", options.json);
   const std::vector<std::unique_ptr<Backend>> backends = create_backends(options);
   const DataFolder data = locate_data_folder(options.data);
 

@@ -2,21 +2,31 @@
 
 #include <charconv>
 #include <cmath>
+#include <limits>
+#include <sstream>
 #include <system_error>
 
 namespace porta::app {
 
 int parse_int(const std::string& option, const std::string& text) {
-  int value = 0;
+  return parse_int(option, text, std::numeric_limits<int>::min(), std::numeric_limits<int>::max());
+}
+
+int parse_int(const std::string& option, const std::string& text, int min, int max) {
+  const auto range = [&] {
+    const bool whole = min == std::numeric_limits<int>::min() && max == std::numeric_limits<int>::max();
+    return whole ? std::string() : " in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  };
+  long long value = 0;
   const char* first = text.data();
   const char* last = text.data() + text.size();
   if (!text.empty() && *first == '+') ++first;  // from_chars rejects a leading '+'; users write it
   const auto [end, error] = std::from_chars(first, last, value);
-  if (error == std::errc::result_out_of_range)
-    throw CliError("option " + option + " expects an integer, got '" + text + "' (out of range)");
-  if (text.empty() || error != std::errc() || end != last)
-    throw CliError("option " + option + " expects an integer, got '" + text + "'");
-  return value;
+  if (text.empty() || (error != std::errc() && error != std::errc::result_out_of_range) || end != last)
+    throw CliError("option " + option + " expects an integer" + range() + ", got '" + text + "'");
+  if (error == std::errc::result_out_of_range || value < min || value > max)
+    throw CliError("option " + option + " expects an integer" + range() + ", got '" + text + "' (out of range)");
+  return static_cast<int>(value);
 }
 
 double parse_double(const std::string& option, const std::string& text) {
@@ -25,6 +35,20 @@ double parse_double(const std::string& option, const std::string& text) {
   if (text.empty() || error != std::errc() || end != text.data() + text.size() || !std::isfinite(value))
     throw CliError("option " + option + " expects a number, got '" + text + "'");
   return value;
+}
+
+double parse_double(const std::string& option, const std::string& text, double min, double max) {
+  const double value = parse_double(option, text);
+  if (value < min || value > max) {
+    std::ostringstream range;
+    range << "[" << min << ", " << max << "]";
+    throw CliError("option " + option + " expects a number in " + range.str() + ", got '" + text + "'");
+  }
+  return value;
+}
+
+int parse_threads(const std::string& option, const std::string& text) {
+  return parse_int(option, text, 0, kMaxThreadsOption);
 }
 
 std::string ArgumentCursor::take() {

@@ -20,6 +20,15 @@ class CliError : public std::runtime_error {
 int parse_int(const std::string& option, const std::string& text);
 /// Parses the whole of `text` as a finite decimal number, or throws CliError naming `option`.
 double parse_double(const std::string& option, const std::string& text);
+/// As above, and the value must lie in [min, max]; the message names the range and repeats the
+/// text the user gave (a value beyond 64 bits is reported as given, never wrapped).
+int parse_int(const std::string& option, const std::string& text, int min, int max);
+double parse_double(const std::string& option, const std::string& text, double min, double max);
+
+/// Worker threads any command accepts (--threads): more than this is a typo, not a machine.
+inline constexpr int kMaxThreadsOption = 256;
+/// Parses --threads: [0, kMaxThreadsOption], 0 = all hardware threads.
+int parse_threads(const std::string& option, const std::string& text);
 
 /// Walks argv left to right. Options may be written "--name value" or "--name=value".
 class ArgumentCursor {

@@ -3,12 +3,14 @@
 // accurately, without downloading anything.
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
 
 #include "cli_args.hpp"
 #include "commands.hpp"
+#include "output_paths.hpp"
 #include "porta/registry.hpp"
 #include "porta/slam/render/sequence.hpp"
 #include "porta/slam/settings_file.hpp"
@@ -62,9 +64,10 @@ int demo_command(const std::vector<std::string>& args) {
         throw CliError("unknown option '" + option + "' (see portaslam demo --help)");
       }
     }
+    const std::filesystem::path folder = prepare_output_folder("--dir", dir);
     slam::render::RenderOptions render;
     render.builtin = slam::render::BuiltinPath::street_loop;
-    render.out_dir = dir + "/sequence";
+    render.out_dir = (folder / "sequence").string();
     render.count = static_cast<std::size_t>(frames);
     render.seed = static_cast<std::uint64_t>(seed);
     render.layout = slam::render::Layout::kitti;
@@ -77,7 +80,7 @@ int demo_command(const std::vector<std::string>& args) {
                 report.frames / std::max(report.seconds, 1e-9));
     run.kind = slam::DatasetKind::kitti;
     run.path = render.out_dir;
-    if (!out_given) run.out = dir + "/run";
+    if (!out_given) run.out = (folder / "run").string();
     const SlamRunSummary summary = run_slam(run);
     std::printf("\ndemo: %zu of %zu frames tracked%s\n", summary.tracked, summary.frames,
                 summary.lost == 0 ? ", tracking never lost" : "");

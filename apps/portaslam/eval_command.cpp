@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cli_args.hpp"
+#include "output_paths.hpp"
 #include "commands.hpp"
 #include "porta/slam/eval_report.hpp"
 #include "porta/slam/evaluation.hpp"
@@ -215,6 +216,9 @@ void print_summary(const std::string& gt_path, const LoadedTrajectory& gt, const
 int run(const EvalOptions& o) {
   const std::string& gt_path = o.files[0];
   const std::string& est_path = o.files[1];
+  // Outputs first: a bad --json or --plots path is found before the evaluation, not after it.
+  if (!o.json_path.empty()) check_output_file("--json", o.json_path);
+  if (!o.plots_dir.empty()) prepare_output_folder("--plots", o.plots_dir);
   const LoadedTrajectory gt = load("ground truth", gt_path, o.gt_format, o.gt_times, "--gt-times");
   const LoadedTrajectory est = load("estimate", est_path, o.est_format, o.est_times, "--est-times");
 

@@ -25,6 +25,7 @@
 #endif
 
 #include "cli_args.hpp"
+#include "output_paths.hpp"
 #include "commands.hpp"
 #include "features_options.hpp"
 #include "image_files.hpp"
@@ -184,10 +185,7 @@ bool have_image_writer(const std::string& path) {  // libpng: a name ending in .
 void check_output_path(const std::string& path) {
   if (!have_image_writer(path))
     throw CliError("cannot write '" + path + "': no image writer for that file name (use a name ending in .png)");
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
-    throw CliError("cannot write '" + path + "': folder '" + folder.string() + "' does not exist");
+  check_output_file("--out", path);
 }
 
 #if PORTA_APPS_HAVE_OPENCV

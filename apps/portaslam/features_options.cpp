@@ -21,7 +21,7 @@ const std::map<std::string, SettingOption>& value_options() {
   static const std::map<std::string, SettingOption> options = {
       {"--backend", {"", [](auto& o, auto&, auto& v) { o.backend = v; }}},
       {"--device", {"", [](auto& o, auto&, auto& v) { o.device = v; }}},
-      {"--threads", {"", [](auto& o, auto& n, auto& v) { o.threads = parse_int(n, v); }}},
+      {"--threads", {"", [](auto& o, auto& n, auto& v) { o.threads = parse_threads(n, v); }}},
       {"--out", {"", [](auto& o, auto&, auto& v) { o.out = v; }}},
       {"--repeat", {"", [](auto& o, auto& n, auto& v) { o.repeat = parse_int(n, v); }}},
       {"--levels", {"levels", [](auto& o, auto& n, auto& v) { o.settings.levels = parse_int(n, v); }}},

@@ -8,9 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#else
-#include "imageio/png_file.hpp"
 #endif
+#include "imageio/png_file.hpp"
 
 #include "cli_args.hpp"
 #include "porta/settings.hpp"
@@ -35,6 +34,27 @@ void check_readable(const std::string& path) {
     throw CliError("cannot open image " + quoted(path) + ": it is a directory, not an image file");
   if (!std::ifstream(path, std::ios::binary))
     throw CliError("cannot open image " + quoted(path) + ": " + std::strerror(errno));
+}
+
+// PNG files are read through libpng in every build (the same bytes as OpenCV would give, see
+// png_file.hpp), with our messages: no library text reaches the user, no huge allocation is tried.
+LoadedImage load_png(const std::string& path) {
+  try {
+    io::GrayPng png = io::read_png_gray(path, kMaxImageSide);
+    return {std::move(png.gray), std::move(png.conversion)};
+  } catch (const io::PngError& e) {
+    switch (e.kind()) {
+      case io::PngError::Kind::too_large:
+        throw CliError(too_large_message(path, e.width(), e.height()));
+      case io::PngError::Kind::unreadable:
+        throw CliError("cannot open image " + quoted(path) + ": " + e.what());
+      case io::PngError::Kind::not_png:
+        throw CliError("cannot decode image " + quoted(path) + ": " + e.what() +
+                       (PORTA_APPS_HAVE_OPENCV ? "" : "; this portaslam was built without OpenCV and reads PNG files only"));
+      default:
+        throw CliError("cannot decode image " + quoted(path) + ": " + e.what());
+    }
+  }
 }
 
 #if PORTA_APPS_HAVE_OPENCV
@@ -63,11 +83,14 @@ cv::Mat to_8bit(const cv::Mat& m, std::string& conversion) {
 
 LoadedImage load_gray_image(const std::string& path) {
   check_readable(path);
+  if (io::has_png_signature(path)) return load_png(path);
   cv::Mat decoded;
   try {
     decoded = cv::imread(path, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
-    throw CliError("cannot decode image " + quoted(path) + ": " + e.what());
+    throw CliError("cannot decode image " + quoted(path) + ": " +
+                   (e.code == cv::Error::StsNoMem ? std::string("too large to decode (out of memory)")
+                                                  : "corrupt or unsupported (" + e.err + ")"));
   }
   if (decoded.empty())
     throw CliError("cannot decode image " + quoted(path) +
@@ -98,22 +121,7 @@ LoadedImage load_gray_image(const std::string& path) {
 
 LoadedImage load_gray_image(const std::string& path) {
   check_readable(path);
-  try {
-    io::GrayPng png = io::read_png_gray(path, kMaxImageSide);
-    return {std::move(png.gray), std::move(png.conversion)};
-  } catch (const io::PngError& e) {
-    switch (e.kind()) {
-      case io::PngError::Kind::too_large:
-        throw CliError(too_large_message(path, e.width(), e.height()));
-      case io::PngError::Kind::unreadable:
-        throw CliError("cannot open image " + quoted(path) + ": " + e.what());
-      case io::PngError::Kind::not_png:
-        throw CliError("cannot decode image " + quoted(path) + ": " + e.what() +
-                       "; this portaslam was built without OpenCV and reads PNG files only");
-      default:
-        throw CliError("cannot decode image " + quoted(path) + ": " + e.what());
-    }
-  }
+  return load_png(path);
 }
 
 #endif

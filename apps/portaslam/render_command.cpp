@@ -4,6 +4,7 @@
 
 #include "cli_args.hpp"
 #include "commands.hpp"
+#include "output_paths.hpp"
 #include "render_options.hpp"
 
 namespace porta::app {
@@ -14,6 +15,7 @@ const char* layout_name(slam::render::Layout l) { return l == slam::render::Layo
 
 int run(const RenderCommandOptions& options) {
   using namespace slam::render;
+  check_output_folder("--out", options.render.out_dir);
   const SequencePlan plan = plan_sequence(options.render);
   const slam::StereoCamera& c = plan.camera;
   std::cout << "source:  " << plan.source << "\n"

@@ -81,7 +81,7 @@ const std::map<std::string, Apply>& value_options() {
       {"--exposure", [](auto& o, auto& n, auto& v) { o.exposure_amplitude = parse_double(n, v); }},
       {"--motion-blur", [](auto& o, auto& n, auto& v) { o.motion_blur = parse_double(n, v); }},
       {"--blur-samples", [](auto& o, auto& n, auto& v) { o.blur_samples = parse_int(n, v); }},
-      {"--threads", [](auto& o, auto& n, auto& v) { o.threads = parse_int(n, v); }},
+      {"--threads", [](auto& o, auto& n, auto& v) { o.threads = parse_threads(n, v); }},
   };
   return options;
 }

@@ -10,11 +10,11 @@
 #include <map>
 #include <memory>
 #include <thread>
-#include <unistd.h>
 #include <vector>
 
 #include "cli_args.hpp"
 #include "loop_report.hpp"
+#include "output_paths.hpp"
 #include "porta/registry.hpp"
 #include "porta/slam/evaluation.hpp"
 #include "porta/slam/settings_file.hpp"
@@ -84,33 +84,13 @@ std::string format_ms(const Quantiles& q) {
   return text;
 }
 
-void ensure_folder(const std::string& folder) {
-  std::error_code error;
-  fs::create_directories(folder, error);
-  if (error || !fs::is_directory(folder)) {
-    throw CliError("cannot create the output folder '" + folder + "': " +
-                   (error ? error.message() : std::string("not a folder")));
-  }
-}
-
-/// The folder a file will be written into must exist and take files: checked before a long run.
-void check_writable_folder_of(const std::string& file) {
-  const fs::path parent = fs::path(file).parent_path().empty() ? fs::path(".") : fs::path(file).parent_path();
-  std::error_code error;
-  if (!fs::is_directory(parent, error)) {
-    throw CliError("cannot write '" + file + "': the folder '" + parent.string() + "' does not exist");
-  }
-  if (fs::is_directory(file, error)) throw CliError("cannot write '" + file + "': it is a folder");
-  const fs::path probe = parent / (".portaslam-write-test-" + std::to_string(::getpid()));
-  std::ofstream test(probe);
-  if (!test) throw CliError("cannot write '" + file + "': the folder '" + parent.string() + "' is not writable");
-  test.close();
-  fs::remove(probe, error);
-}
-
 }  // namespace
 
 SlamRunSummary run_slam(const SlamRunOptions& options) {
+  // Every output is checked before anything is read or run (created once the input is known good).
+  check_output_folder("--out", options.out);
+  if (!options.save_map.empty()) check_output_file("--save-map", options.save_map, options.out);
+  if (!options.json.empty()) check_output_file("--json", options.json, options.out);
   const auto dataset = slam::open_dataset(options.kind, options.path, options.dataset);
   if (dataset->size() == 0) throw CliError("the dataset " + options.path + " has no stereo frames");
   if (options.first >= dataset->size()) {
@@ -120,11 +100,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   const std::size_t end =
       options.count == 0 ? dataset->size() : std::min(dataset->size(), options.first + options.count);
   const slam::SlamSettings settings = make_settings(options, *dataset);
-  ensure_folder(options.out);
   if (options.localization && options.load_map.empty()) {
     throw CliError("--localization tracks on a saved map: give it with --load-map FILE");
   }
-  if (!options.save_map.empty()) check_writable_folder_of(options.save_map);  // before the run, not after
+  prepare_output_folder("--out", options.out);
 
   BackendOptions backend_options;
   backend_options.device = options.device;
@@ -298,9 +277,13 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       summary.has_ate = true;
       summary.ate_rmse_m = eval.ate.translation_m.rmse;
       summary.path_length_m = eval.matched_path_length_m;
-      std::printf("\nATE (SE(3)-aligned, %zu poses): RMSE %.4f m, median %.4f m, max %.4f m",
-                  eval.association.matched(), summary.ate_rmse_m, eval.ate.translation_m.median,
-                  eval.ate.translation_m.max);
+      // The pose count says how many frames the figure covers: frames without a pose are named
+      // here, on the ATE line itself, and again in the warning below.
+      const std::size_t missing = summary.frames - std::min(summary.frames, summary.tracked);
+      std::printf("\nATE (SE(3)-aligned, %zu poses of %zu frames%s): RMSE %.4f m, median %.4f m, max %.4f m",
+                  eval.association.matched(), summary.frames,
+                  missing == 0 ? "" : ("; " + std::to_string(missing) + " frames without a pose are not in it").c_str(),
+                  summary.ate_rmse_m, eval.ate.translation_m.median, eval.ate.translation_m.max);
       if (summary.path_length_m >= 1.0) {
         std::printf(" (RMSE = %.3f %% of the %.1f m path)", 100.0 * summary.ate_rmse_m / summary.path_length_m,
                     summary.path_length_m);
@@ -380,8 +363,7 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
   } else if (option == "--device") {
     options.device = cursor.value(option);
   } else if (option == "--threads") {
-    options.threads = parse_int(option, cursor.value(option));
-    if (options.threads < 0) throw CliError("--threads must be >= 0 (0 = all hardware threads)");
+    options.threads = parse_threads(option, cursor.value(option));
   } else if (option == "--mode") {
     const std::string mode = cursor.value(option);
     if (mode == "realtime") {
@@ -407,9 +389,12 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
   } else if (option == "--json") {
     options.json = cursor.value(option);
   } else if (option == "--rate") {
-    options.rate = parse_double(option, cursor.value(option));
-    if (!(options.rate >= 0.0) || !std::isfinite(options.rate)) {
-      throw CliError("--rate must be a finite number >= 0 (1 = the recorded frame rate, 0 = as fast as possible)");
+    // Beyond [1/1000, 1000] the frame interval leaves the clock's range or rounds to nothing.
+    const std::string text = cursor.value(option);
+    options.rate = parse_double(option, text, 0.0, 1000.0);
+    if (options.rate > 0.0 && options.rate < 1e-3) {
+      throw CliError("option --rate expects 0 (as fast as possible) or a rate in [0.001, 1000] (1 = the recorded "
+                     "frame rate), got '" + text + "'");
     }
   } else if (option == "--cell") {
     options.cell = parse_int(option, cursor.value(option));

@@ -2,22 +2,40 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
+#include <string>
+#include <system_error>
 
 namespace porta::cpu {
 
 ThreadPool::ThreadPool(int threads) {
+  if (threads < 0 || threads > kMaxThreads) {
+    throw std::invalid_argument("cpu backend: threads must be in [0, " + std::to_string(kMaxThreads) +
+                                "] (0 = all hardware threads), got " + std::to_string(threads));
+  }
   int n = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
-  n = std::max(1, n);
-  for (int i = 0; i + 1 < n; ++i) workers_.emplace_back([this] { worker_loop(); });
+  n = std::clamp(n, 1, kMaxThreads);
+  try {
+    for (int i = 0; i + 1 < n; ++i) workers_.emplace_back([this] { worker_loop(); });
+  } catch (const std::system_error& e) {
+    // The system refused a thread: stop the ones started, so that nothing is left joinable.
+    const std::size_t started = workers_.size();
+    stop_workers();
+    throw std::runtime_error("cpu backend: could not start " + std::to_string(n - 1) + " worker threads (" +
+                             std::to_string(started) + " started): " + e.what() + "; ask for fewer with --threads");
+  }
 }
 
-ThreadPool::~ThreadPool() {
+ThreadPool::~ThreadPool() { stop_workers(); }
+
+void ThreadPool::stop_workers() {
   {
     std::lock_guard lock(mutex_);
     stop_ = true;
   }
   wake_.notify_all();
   for (auto& t : workers_) t.join();
+  workers_.clear();
 }
 
 void ThreadPool::wait_for_workers_outside() const {

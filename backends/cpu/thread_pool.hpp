@@ -16,7 +16,10 @@ namespace porta::cpu {
 
 class ThreadPool {
  public:
-  /// `threads` 0 = std::thread::hardware_concurrency().
+  /// Most threads a pool takes: more is a mistake, not a machine (and each costs a stack).
+  static constexpr int kMaxThreads = 1024;
+  /// `threads` 0 = std::thread::hardware_concurrency(). Throws std::invalid_argument outside
+  /// [0, kMaxThreads], std::runtime_error (no thread left running) when the system refuses one.
   explicit ThreadPool(int threads = 0);
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
@@ -30,6 +33,7 @@ class ThreadPool {
 
  private:
   void worker_loop();
+  void stop_workers();
   /// Waits (spinning, then yielding) until no worker is inside a job.
   void wait_for_workers_outside() const;
 

@@ -241,6 +241,20 @@ Trajectory read_trajectory(const std::string& path, TrajectoryFormat format, con
     case TrajectoryFormat::euroc: trajectory = read_euroc(path, lines); break;
     case TrajectoryFormat::kitti: trajectory = read_kitti(path, lines, kitti_times_path); break;
   }
+  // Bounds that every real trajectory meets (positions within 1e9 m: ECEF and UTM coordinates fit;
+  // times within ~3000 years): beyond them squares and sums overflow and metrics become inf or nan.
+  for (std::size_t i = 0; i < trajectory.poses.size(); ++i) {
+    const StampedPose& p = trajectory.poses[i];
+    if (p.pose.translation().cwiseAbs().maxCoeff() > kMaxTrajectoryCoordinateM) {
+      throw TrajectoryError("trajectory file " + path + ": pose " + std::to_string(i) + " has a coordinate beyond " +
+                            exact(kMaxTrajectoryCoordinateM) + " m (" + exact(p.pose.translation().cwiseAbs().maxCoeff()) +
+                            ")");
+    }
+    if (std::abs(p.time_s) > kMaxTrajectoryTimeS) {
+      throw TrajectoryError("trajectory file " + path + ": pose " + std::to_string(i) + " has the time " +
+                            exact(p.time_s) + " s, beyond " + exact(kMaxTrajectoryTimeS) + " s");
+    }
+  }
   if (trajectory.has_times) {
     for (std::size_t i = 1; i < trajectory.poses.size(); ++i) {
       if (!(trajectory.poses[i].time_s > trajectory.poses[i - 1].time_s)) {

@@ -1,11 +1,13 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -13,6 +15,7 @@
 #include <sstream>
 
 #include "dataset_internal.hpp"
+#include "imageio/png_file.hpp"
 #include "porta/settings.hpp"
 #include "porta/slam/trajectory_io.hpp"
 
@@ -100,6 +103,13 @@ std::vector<double> read_times_file(const fs::path& path) {
     if (!(fields >> t) || (fields >> rest) || !std::isfinite(t))
       fail("times file " + in_quotes(path) + " line " + std::to_string(number) +
            ": expected one time in seconds, got '" + text + "'");
+    if (std::abs(t) > kMaxTimeS)
+      fail("times file " + in_quotes(path) + " line " + std::to_string(number) + ": the time " + format_number(t) +
+           " s is outside [-" + format_number(kMaxTimeS) + ", " + format_number(kMaxTimeS) + "] s");
+    if (!times.empty() && !(t > times.back()))
+      fail("times file " + in_quotes(path) + " line " + std::to_string(number) + ": the time " + format_number(t, 12) +
+           " s does not come after the one before (" + format_number(times.back(), 12) +
+           " s); times must increase, one per frame");
     times.push_back(t);
   }
   if (times.empty()) fail("times file " + in_quotes(path) + " has no times");
@@ -130,11 +140,32 @@ cv::Mat read_gray(const fs::path& path, int width, int height) {
   const auto status = fs::status(path, ec);
   if (!fs::exists(status)) fail("image " + in_quotes(path) + " is missing");
   if (fs::is_directory(status)) fail("image " + in_quotes(path) + " is a folder, not an image file");
+  if (io::has_png_signature(path.string())) {
+    // PNG through libpng (the bytes OpenCV would give, png_file.hpp) with the size checked before
+    // any pixel is allocated, and our messages instead of a library's.
+    try {
+      io::GrayPng png = io::read_png_gray(path.string(), kMaxImageSide);
+      cv::Mat gray(png.gray.height(), png.gray.width(), CV_8UC1);
+      for (int y = 0; y < gray.rows; ++y)
+        std::memcpy(gray.ptr<std::uint8_t>(y), png.gray.row(y), static_cast<std::size_t>(gray.cols));
+      if (width > 0 && height > 0 && (gray.cols != width || gray.rows != height))
+        fail("image " + in_quotes(path) + " is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+             ", expected " + std::to_string(width) + "x" + std::to_string(height) + " like the rest of the dataset");
+      return gray;
+    } catch (const io::PngError& e) {
+      if (e.kind() == io::PngError::Kind::too_large)
+        fail("image " + in_quotes(path) + " is " + std::to_string(e.width()) + "x" + std::to_string(e.height()) +
+             ": larger than the limit of " + std::to_string(kMaxImageSide) + " px per side");
+      fail("cannot decode image " + in_quotes(path) + ": " + e.what());
+    }
+  }
   cv::Mat decoded;
   try {
     decoded = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
-    fail("cannot decode image " + in_quotes(path) + ": " + e.err);
+    fail("cannot decode image " + in_quotes(path) + ": " +
+         (e.code == cv::Error::StsNoMem ? std::string("too large to decode (out of memory)")
+                                        : "corrupt or unsupported (" + e.err + ")"));
   }
   if (decoded.empty())
     fail("cannot decode image " + in_quotes(path) +
@@ -162,6 +193,36 @@ Image to_image(const cv::Mat& gray) {
   return image;
 }
 
+namespace {
+
+/// The first integer literal (digits not touching a letter, digit, '.' or '_') beyond 32 bits,
+/// described with its line; nullopt when there is none.
+std::optional<std::string> find_wide_integer(const std::string& content) {
+  const auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_'; };
+  int line = 1;
+  for (std::size_t i = 0; i < content.size(); ++i) {
+    if (content[i] == '\n') ++line;
+    if (!std::isdigit(static_cast<unsigned char>(content[i])) || (i > 0 && word_char(content[i - 1]))) continue;
+    std::size_t end = i;
+    while (end < content.size() && std::isdigit(static_cast<unsigned char>(content[end]))) ++end;
+    const bool whole = end == content.size() || !(word_char(content[end]) || content[end] == 'e' || content[end] == 'E');
+    const std::size_t first = i > 0 && (content[i - 1] == '-' || content[i - 1] == '+') ? i - 1 : i;
+    if (whole) {
+      long long value = 0;  // of the digits; the sign allows one more below zero
+      const auto result = std::from_chars(content.data() + i, content.data() + end, value);
+      const long long limit = content[first] == '-' ? -static_cast<long long>(std::numeric_limits<int>::min())
+                                                    : std::numeric_limits<int>::max();
+      if (result.ec == std::errc::result_out_of_range || value > limit)
+        return "line " + std::to_string(line) + ": the integer " + content.substr(first, end - first) +
+               " is out of range (beyond 32 bits)";
+    }
+    i = end > i ? end - 1 : i;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& storage) {
   std::error_code ec;
   const auto status = fs::status(path, ec);
@@ -172,6 +233,9 @@ std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& stor
   std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (trim(content).empty()) return std::string("the file is empty");
   if (content.find('\0') != std::string::npos) return std::string("not a YAML file (binary content)");
+  // OpenCV stores an integer literal in an int and wraps one beyond 32 bits ("Camera.width:
+  // 4294968538" reads as 1242): such a literal is refused here, before it can pass a range check.
+  if (const auto wide = find_wide_integer(content)) return *wide;
   // OpenCV's YAML reader insists on the "%YAML" directive; plain YAML files (a renderer's, a
   // hand-written one) lack it, so it is added, and parse-error line numbers are moved back.
   int added_lines = 0;
@@ -192,6 +256,18 @@ std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& stor
   }
   if (!storage.isOpened()) return std::string("not valid YAML");
   if (!storage.root().isMap()) return std::string("not a YAML map of keys");
+  return std::nullopt;
+}
+
+std::optional<std::string> distortion_problem(const std::vector<double>& coefficients) {
+  static const char* const kNames[] = {"k1", "k2", "p1", "p2", "k3"};
+  for (std::size_t i = 0; i < coefficients.size(); ++i) {
+    const double v = coefficients[i];
+    if (std::isfinite(v) && std::abs(v) <= kMaxDistortionCoefficient) continue;
+    return "distortion coefficient " + std::to_string(i + 1) + (i < 5 ? std::string(" (") + kNames[i] + ")" : "") +
+           " is " + format_number(v) + ", outside [-" + format_number(kMaxDistortionCoefficient) + ", " +
+           format_number(kMaxDistortionCoefficient) + "]";
+  }
   return std::nullopt;
 }
 

@@ -49,6 +49,15 @@ Image to_image(const cv::Mat& gray);
 /// an error text (no file name) on failure: not readable, empty, or not YAML (with the line).
 std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& storage);
 
+/// Largest magnitude of a time stamp in seconds (~3000 years): more is a unit mistake or garbage.
+inline constexpr double kMaxTimeS = 1e11;
+
+/// Largest magnitude a lens distortion coefficient (k1 k2 p1 p2 k3) may have: real lenses,
+/// fisheyes included, stay far below; beyond it the value is a typo and undistortion breaks down.
+inline constexpr double kMaxDistortionCoefficient = 100.0;
+/// "coefficient 1 (k1) is 1e+10, outside [-100, 100]" for the first coefficient out of range.
+std::optional<std::string> distortion_problem(const std::vector<double>& coefficients);
+
 /// Reads a ground-truth trajectory (format detected); TrajectoryError becomes DatasetError.
 Trajectory read_ground_truth(const fs::path& path, const std::string& kitti_times_path = "");
 

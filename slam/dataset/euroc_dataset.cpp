@@ -119,6 +119,7 @@ class SensorReader {
       cam.D.clear();
     } else if (model == "radial-tangential" || model == "radtan" || model == "plumb_bob") {
       cam.D = numbers(required("distortion_coefficients"), "distortion_coefficients", 4, 5);
+      if (const auto problem = distortion_problem(cam.D)) bad("distortion_coefficients", "has a " + *problem);
     } else {
       bad("distortion_model", "is '" + model + "': only 'radial-tangential' (k1 k2 p1 p2 [k3]) is supported");
     }

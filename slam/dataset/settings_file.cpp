@@ -102,6 +102,7 @@ class Reader {
     std::vector<double> values;
     const cv::Mat flat = m->reshape(1, 1);
     for (int i = 0; i < n; ++i) values.push_back(flat.at<double>(0, i));
+    if (const auto problem = detail::distortion_problem(values)) fail(key, "has a " + *problem);
     return values;
   }
 
@@ -152,6 +153,18 @@ SettingsFile read_settings_file(const std::string& path) {
   s.p1 = read.number("Camera.p1");
   s.p2 = read.number("Camera.p2");
   s.k3 = read.number("Camera.k3");
+  {
+    const std::pair<const char*, std::optional<double>> coefficients[] = {
+        {"Camera.k1", s.k1}, {"Camera.k2", s.k2}, {"Camera.p1", s.p1}, {"Camera.p2", s.p2}, {"Camera.k3", s.k3}};
+    for (const auto& [key, value] : coefficients) {
+      if (value && std::abs(*value) > detail::kMaxDistortionCoefficient) {
+        throw SettingsFileError("settings file " + in_quotes(path) + ": key '" + key + "' is " +
+                                detail::format_number(*value) + ": a distortion coefficient must lie in [-" +
+                                detail::format_number(detail::kMaxDistortionCoefficient) + ", " +
+                                detail::format_number(detail::kMaxDistortionCoefficient) + "]");
+      }
+    }
+  }
   s.width = read.integer("Camera.width");
   s.height = read.integer("Camera.height");
   s.fps = read.number("Camera.fps");

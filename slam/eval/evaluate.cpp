@@ -1,6 +1,8 @@
 // The whole evaluation: associate, align, measure (evaluation.hpp).
 #include "porta/slam/evaluation.hpp"
 
+#include <cmath>
+
 namespace porta::slam {
 
 EvaluationResult evaluate(const Trajectory& ground_truth, const Trajectory& estimate,
@@ -23,6 +25,16 @@ EvaluationResult evaluate(const Trajectory& ground_truth, const Trajectory& esti
   r.alignment = align_points(gt_points, est_points, options.alignment);
   r.ate = compute_ate(gt, est, r.alignment);
   r.rpe = compute_rpe(gt, est, options.rpe, r.alignment.scale);
+  // A result that is not a number must never be printed as one (and exit 0).
+  const double headline[] = {r.ate.translation_m.rmse, r.ate.translation_m.max, r.ate.rotation_deg.rmse,
+                             r.rpe.translation_m.rmse, r.rpe.translation_m.max, r.rpe.rotation_deg.rmse,
+                             r.alignment.scale};
+  for (double v : headline) {
+    if (!std::isfinite(v)) {
+      throw EvaluationError("the errors are not finite numbers (the positions are too large or degenerate to "
+                            "align); check the trajectories' units and values");
+    }
+  }
   const bool kitti =
       options.kitti == KittiMetric::on || (options.kitti == KittiMetric::automatic && a.by_index);
   if (kitti) r.kitti = compute_kitti(gt, est, r.alignment.scale);

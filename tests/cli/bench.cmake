@@ -78,7 +78,7 @@ frames/s"
   porta_cli_test(bench_frames_missing_value EXIT 1 STDERR "option --frames needs a value" ARGS bench --frames)
   porta_cli_test(bench_warmup_negative EXIT 1
                  STDERR "option --warmup expects a count in \\[0, 1000000\\], got -1" ARGS bench --warmup=-1)
-  porta_cli_test(bench_threads_negative EXIT 1 STDERR "option --threads expects a count >= 0" ARGS bench --threads -2)
+  porta_cli_test(bench_threads_negative EXIT 1 STDERR "option --threads expects an integer in \\[0, 256\\], got '-2'" ARGS bench --threads -2)
   porta_cli_test(bench_resolution_not_wxh EXIT 1
                  STDERR "option --resolutions expects sizes WxH separated by commas \\(e.g. 640x480,1242x375\\), got '640by480'"
                  ARGS bench --resolutions 320x240,640by480)
@@ -100,7 +100,7 @@ frames/s"
   porta_cli_test(bench_data_folder_missing EXIT 1
                  STDERR "data folder 'no/such/folder' \\(from --data\\) is not a folder" ARGS bench ${tiny} --data no/such/folder)
   porta_cli_test(bench_json_folder_missing EXIT 1
-                 STDERR "cannot write 'no/such/bench.json': folder 'no/such' does not exist"
+                 STDERR "option --json: cannot write 'no/such/bench.json': the folder 'no/such' does not exist"
                  ARGS bench ${tiny} --json no/such/bench.json)
 endfunction()
 

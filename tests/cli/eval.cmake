@@ -113,8 +113,8 @@ porta_eval_cli_test(rpe_delta_and_distance EXIT 1 STDERR "exclude each other" AR
 porta_eval_cli_test(bad_alignment EXIT 1 STDERR "option --align expects se3, sim3 or none, got 'affine'" ARGS gt.tum gt.tum --align affine)
 porta_eval_cli_test(missing_value EXIT 1 STDERR "option --json needs a value" ARGS gt.tum gt.tum --json)
 porta_eval_cli_test(flag_with_value EXIT 1 STDERR "option --kitti takes no value" ARGS gt.tum gt.tum --kitti=yes)
-porta_eval_cli_test(plots_into_a_file EXIT 1 STDERR "cannot write plots into 'gt\\.tum': it is a file" ARGS gt.tum gt.tum --plots gt.tum)
-porta_eval_cli_test(json_folder_missing EXIT 1 STDERR "cannot write the JSON report 'no_such_folder/r\\.json'"
+porta_eval_cli_test(plots_into_a_file EXIT 1 STDERR "option --plots: 'gt\\.tum' is a file, not a folder" ARGS gt.tum gt.tum --plots gt.tum)
+porta_eval_cli_test(json_folder_missing EXIT 1 STDERR "option --json: cannot write 'no_such_folder/r\\.json': the folder 'no_such_folder' does not exist"
                     ARGS gt.tum gt.tum --json no_such_folder/r.json)
 
 # ---- The shared real ground truths (skipped when ../shared/data is absent) ------------------------

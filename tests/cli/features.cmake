@@ -129,7 +129,7 @@ porta_cli_test(features_missing_option_value EXIT 1 STDERR "option --levels need
 porta_cli_test(features_option_value_is_an_option EXIT 1 STDERR "option --out needs a value"
                ARGS features --out --levels 4)
 porta_cli_test(features_unknown_option EXIT 1 STDERR "unknown option '--frobnicate'" ARGS features --frobnicate)
-porta_cli_test(features_negative_threads EXIT 1 STDERR "option --threads expects a count >= 0" ARGS features --threads -1)
+porta_cli_test(features_negative_threads EXIT 1 STDERR "option --threads expects an integer in \\[0, 256\\], got '-1'" ARGS features --threads -1)
 porta_cli_test(features_zero_repeat EXIT 1 STDERR "option --repeat expects a count in \\[1, 10000\\], got 0"
                ARGS features --repeat 0)
 

@@ -41,7 +41,7 @@ porta_cli_test(render_bad_size EXIT 1 STDERR "--size expects a size in \\[16, 81
 porta_cli_test(render_bad_size_text EXIT 1 STDERR "--size expects WIDTHxHEIGHT" ARGS render --out x --size big)
 porta_cli_test(render_bad_fx EXIT 1 STDERR "option --fx expects a number, got 'abc'" ARGS render --out x --fx abc)
 porta_cli_test(render_bad_baseline EXIT 1 STDERR "bad camera: .*baseline" ARGS render --out x --baseline 0 --count 1)
-porta_cli_test(render_bad_principal_point EXIT 1 STDERR "principal point" ARGS render --out x --cx -5 --count 1)
+porta_cli_test(render_bad_principal_point EXIT 1 STDERR "cx -5 is outside the image, \\[0, 1242\\]" ARGS render --out x --cx -5 --count 1)
 porta_cli_test(render_bad_supersample EXIT 1 STDERR "supersample must be in \\[1, 4\\]" ARGS render --out x --supersample 0)
 porta_cli_test(render_bad_noise EXIT 1 STDERR "noise sigma must be in \\[0, 64\\]" ARGS render --out x --noise -1)
 porta_cli_test(render_first_outside EXIT 1 STDERR "first frame 5000 is outside the trajectory: it has [0-9]+ frames"

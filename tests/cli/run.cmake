@@ -14,7 +14,7 @@ porta_cli_test(run_missing_dataset EXIT 1 STDERR "portaslam run: .*no_such_folde
 porta_cli_test(run_bad_mode EXIT 1 STDERR "--mode must be realtime or deterministic, got 'fast'"
                ARGS run --dataset kitti x --mode fast)
 porta_cli_test(run_unknown_option EXIT 1 STDERR "unknown option '--speed'" ARGS run --speed 2)
-porta_cli_test(run_bad_rate EXIT 1 STDERR "--rate must be a finite number >= 0" ARGS run --dataset kitti x --rate -1)
+porta_cli_test(run_bad_rate EXIT 1 STDERR "option --rate expects a number in \\[0, 1000\\], got .-1." ARGS run --dataset kitti x --rate -1)
 porta_cli_test(run_rate_not_a_number EXIT 1 STDERR "option --rate expects a number, got 'abc'" ARGS run --dataset kitti x --rate abc)
 porta_cli_test(run_rate_without_value EXIT 1 STDERR "option --rate needs a value" ARGS run --dataset kitti x --rate)
 porta_cli_test(run_unavailable_backend EXIT 1 STDERR "portaslam run: .*(nosuch|unknown)"
@@ -70,7 +70,7 @@ if(EXISTS ${PORTA_DATA_DIR}/euroc-v101-head)
                  ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --load-map no_such.pmap --out bad-map)
   porta_cli_test(run_load_map_empty EXIT 1 STDERR "map file 'empty\\.pmap': the file is empty"
                  ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --load-map empty.pmap --out bad-map)
-  porta_cli_test(run_save_map_is_a_folder EXIT 1 STDERR "cannot write '\\.': it is a folder"
+  porta_cli_test(run_save_map_is_a_folder EXIT 1 STDERR "option --save-map: '\\.' is a folder, not a file"
                  ARGS run --dataset euroc ${PORTA_DATA_DIR}/euroc-v101-head --save-map . --out bad-map)
 endif()
 

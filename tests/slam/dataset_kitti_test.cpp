@@ -305,6 +305,45 @@ TEST(DatasetKitti, UnparsableTimesAndCalibrationLinesNameFileAndLine) {
   EXPECT_NE(message.find("has no calib.txt"), std::string::npos) << message;
 }
 
+TEST(DatasetKitti, TimesThatDoNotIncreaseAreRefusedWithTheLine) {
+  // Accepted before, the run's output was then refused by `portaslam eval`.
+  TempDir dir;
+  write_kitti(dir.path());
+  write_text(dir.path() / "times.txt", "0.0\n0.1\n0.1\n0.3\n0.4\n");
+  std::string message = error_of([&] { open_dataset(DatasetKind::kitti, dir.path().string()); });
+  EXPECT_NE(message.find("times.txt' line 3: the time 0.1 s does not come after the one before (0.1 s)"),
+            std::string::npos) << message;
+  write_text(dir.path() / "times.txt", "0.0\n0.1\n0.2\n0.15\n0.4\n");
+  message = error_of([&] { open_dataset(DatasetKind::kitti, dir.path().string()); });
+  EXPECT_NE(message.find("line 4: the time 0.15 s does not come after"), std::string::npos) << message;
+  write_text(dir.path() / "times.txt", "0.0\n0.1\n0.2\n0.3\n1e300\n");
+  message = error_of([&] { open_dataset(DatasetKind::kitti, dir.path().string()); });
+  EXPECT_NE(message.find("line 5: the time 1e+300 s is outside"), std::string::npos) << message;
+}
+
+TEST(DatasetKitti, APngWithAHugeHeaderIsRefusedBeforeAnyAllocation) {
+  // A valid PNG whose header claims 2^31-1 x 2^31-1 pixels: the size is checked before decoding,
+  // and the message is ours (not "Failed to allocate ... bytes" from a library).
+  TempDir dir;
+  write_kitti(dir.path());
+  const fs::path png = dir.path() / "image_0" / "000001.png";
+  std::string bytes;
+  {
+    std::ifstream in(png, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  ASSERT_GT(bytes.size(), 33u);
+  for (int i = 16; i < 24; ++i) bytes[static_cast<std::size_t>(i)] = i % 4 == 0 ? '\x7f' : '\xff';
+  std::ofstream(png, std::ios::binary | std::ios::trunc) << bytes;
+  const auto dataset = open_dataset(DatasetKind::kitti, dir.path().string());
+  const std::string message = error_of([&] { dataset->load(1); });
+  EXPECT_NE(message.find("image_0/000001.png"), std::string::npos) << message;
+  EXPECT_EQ(message.find("Failed to allocate"), std::string::npos) << message;
+  EXPECT_TRUE(message.find("larger than the limit") != std::string::npos ||
+              message.find("cannot decode image") != std::string::npos)
+      << message;
+}
+
 TEST(DatasetKitti, CorruptOrWrongSizedImagesAreNamedWhenLoaded) {
   TempDir dir;
   write_kitti(dir.path());

@@ -219,6 +219,32 @@ TEST(SettingsFile, PartialRectificationBlockNamesTheMissingKey) {
   EXPECT_NE(message.find("key 'RIGHT.R' is missing"), std::string::npos) << message;
 }
 
+// ---- Values beyond what a number or a camera can be ---------------------------------------------
+
+TEST(SettingsFile, IntegersBeyond32BitsAreRefusedAsWrittenNotWrapped) {
+  // OpenCV wraps 4294968538 to 1242, which then passed every range check.
+  const TempFile wide(std::string(kMinimal) + "ORBextractor.nLevels: 4294967304\n");
+  std::string message = error_of([&] { read_settings_file(wide.path()); });
+  EXPECT_NE(message.find("line 9: the integer 4294967304 is out of range (beyond 32 bits)"), std::string::npos)
+      << message;
+  const TempFile negative(std::string(kMinimal) + "ORBextractor.iniThFAST: -2147483649\n");
+  message = error_of([&] { read_settings_file(negative.path()); });
+  EXPECT_NE(message.find("the integer -2147483649 is out of range"), std::string::npos) << message;
+  // The 32-bit extremes themselves, keys with digits and real numbers are not integers to refuse.
+  const TempFile edge(std::string(kMinimal) + "ORBextractor.iniThFAST: 2147483647\nCamera.k1: 12345678901.5e-12\n");
+  EXPECT_NO_THROW(read_settings_file(edge.path()));
+}
+
+TEST(SettingsFile, DistortionCoefficientsBeyondAnyLensAreRefused) {
+  const TempFile k1(std::string(kMinimal) + "Camera.k1: 1e10\n");
+  std::string message = error_of([&] { read_settings_file(k1.path()); });
+  EXPECT_NE(message.find("key 'Camera.k1' is 1e+10: a distortion coefficient must lie in [-100, 100]"),
+            std::string::npos) << message;
+  const TempFile camera(std::string(kMinimal).replace(std::string(kMinimal).find("500.0"), 5, "1e300"));
+  message = error_of([&] { read_settings_file(camera.path()).stereo_camera(); });
+  EXPECT_NE(message.find("fx 1e+300 is outside"), std::string::npos) << message;
+}
+
 }  // namespace
 }  // namespace porta::slam
 

@@ -160,6 +160,52 @@ TEST(TrajectoryIo, BadInputNamesFileAndLine) {
             std::string::npos);
 }
 
+TEST(TrajectoryIo, ValuesBeyondTheBoundsAreRefusedNotEvaluatedToInf) {
+  TempDir dir;
+  // 1e300 squared is inf: such a file used to give "ATE RMSE inf m" and exit 0.
+  const std::string huge = dir.file("huge.txt", "1 0 0 1e300 0 1 0 0 0 0 1 0\n1 0 0 -1e300 0 1 0 0 0 0 1 1\n");
+  std::string message = error_of([&] { read_trajectory(huge); });
+  EXPECT_NE(message.find("pose 0 has a coordinate beyond 1e+09 m (1e+300)"), std::string::npos) << message;
+  const std::string late = dir.file("late.txt", "1e300 0 0 0 0 0 0 1\n");
+  message = error_of([&] { read_trajectory(late); });
+  EXPECT_NE(message.find("has the time 1e+300 s"), std::string::npos) << message;
+  // At the bounds a file is still read.
+  const std::string far = dir.file("far.txt", "1 0 0 1e9 0 1 0 -1e9 0 0 1 0\n");
+  EXPECT_EQ(read_trajectory(far).size(), 1u);
+}
+
+TEST(StereoCamera, ValuesNoRealCameraHasAreRefusedWithValueAndRange) {
+  const StereoCamera kitti{1242, 375, 718.856, 718.856, 607.19, 185.22, 0.537};
+  EXPECT_NO_THROW(kitti.validate());
+  const auto message = [](StereoCamera c) {
+    try {
+      c.validate();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  StereoCamera c = kitti;
+  c.fx = 1e300;  // used to overflow the renderer's pixel arithmetic (SIGSEGV)
+  EXPECT_NE(message(c).find("fx 1e+300 is outside [248.4, 124200] px for a 1242x375 image"), std::string::npos)
+      << message(c);
+  c = kitti;
+  c.fy = 10.0;
+  EXPECT_NE(message(c).find("fy 10 is outside"), std::string::npos) << message(c);
+  c = kitti;
+  c.cx = 1300.0;
+  EXPECT_NE(message(c).find("cx 1300 is outside the image, [0, 1242]"), std::string::npos) << message(c);
+  c = kitti;
+  c.cy = -1.0;
+  EXPECT_NE(message(c).find("cy -1 is outside the image"), std::string::npos) << message(c);
+  c = kitti;
+  c.baseline_m = 1e-300 / c.fx;  // bf 1e-300
+  EXPECT_NE(message(c).find("m is outside [0.001, 100] m"), std::string::npos) << message(c);
+  c = kitti;
+  c.baseline_m = 1e6;
+  EXPECT_NE(message(c).find("baseline 1e+06 m"), std::string::npos) << message(c);
+}
+
 TEST(Pose, RotationAngleIsAccurateNearZeroAndPi) {
   for (double angle : {0.0, 1e-9, 1e-4, 0.5, 3.0, M_PI - 1e-6, M_PI}) {
     const Eigen::Matrix3d r = Eigen::AngleAxisd(angle, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();

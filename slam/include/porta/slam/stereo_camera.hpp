@@ -16,8 +16,14 @@ struct StereoCamera {
 
   /// fx * baseline: disparity (px) = bf / depth (m). ORB-SLAM2's Camera.bf.
   double bf() const { return fx * baseline_m; }
-  /// Throws std::invalid_argument naming the field when a value is out of range: sizes 1..16384,
-  /// focal lengths > 0 and finite, principal point finite, baseline > 0 and finite.
+  /// Plausibility bounds of validate(): focal lengths per pixel of the longer image side, baseline.
+  static constexpr double kMinFocalPerSide = 0.2, kMaxFocalPerSide = 100.0;
+  static constexpr double kMinBaselineM = 1e-3, kMaxBaselineM = 100.0;
+
+  /// Throws std::invalid_argument naming the field, its value and the range when a value is
+  /// outside what a real camera has: sizes 1..kMaxImageSide, focal lengths in
+  /// [kMinFocalPerSide, kMaxFocalPerSide] x the longer side, the principal point on the image,
+  /// baseline in [kMinBaselineM, kMaxBaselineM].
   void validate() const;
   /// "752x480 fx 458.65 fy 457.30 cx 367.22 cy 248.38 baseline 0.1101 m"
   std::string describe() const;

@@ -32,9 +32,14 @@ class TrajectoryError : public std::runtime_error {
 /// Guesses the format from the first data line: commas -> euroc; 8 numbers -> tum; 12 or 13 -> kitti.
 TrajectoryFormat detect_trajectory_format(const std::string& path);
 
+/// Bounds read_trajectory() enforces: |coordinate| in metres and |time| in seconds.
+inline constexpr double kMaxTrajectoryCoordinateM = 1e9;
+inline constexpr double kMaxTrajectoryTimeS = 1e11;
+
 /// Reads a trajectory. For KITTI, `kitti_times_path` (optional) is a times.txt with one time per pose;
 /// without it (and without a time column) has_times is false and time_s is the line index.
-/// Quaternions are normalised; a zero quaternion or a non-rotation 3x3 block is an error.
+/// Quaternions are normalised; a zero quaternion or a non-rotation 3x3 block is an error, and so
+/// are times that do not increase and values beyond the bounds above.
 Trajectory read_trajectory(const std::string& path, TrajectoryFormat format,
                            const std::string& kitti_times_path = "");
 /// Same, with the format detected by detect_trajectory_format().

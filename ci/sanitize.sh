@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Sanitizer runs (docs/RELIABILITY.md): builds PortaSLAM twice more and runs
+#  1. the unit, slam and cli tests under AddressSanitizer + UndefinedBehaviorSanitizer
+#     (build-asan; halt_on_error, leaks checked), and
+#  2. the threaded SLAM tests (local mapping, loop closing, tracking, the System) under
+#     ThreadSanitizer (build-tsan).
+# The GPU backends are left out of these builds: lavapipe and PoCL are not instrumented (their
+# own leaks and races would be reported as ours), and the equivalence suite runs them in the
+# main build. Exits non-zero on the first report. Called by ci/test.sh; PORTA_SANITIZERS=off there
+# skips it. Run ci/setup.sh first.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+jobs="${PORTA_JOBS:-2}"
+common=(-G Ninja -DPORTA_WERROR=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g"
+        -DPORTA_WITH_VULKAN=OFF -DPORTA_WITH_OPENCL=OFF -DPORTA_WITH_CUDA=OFF)
+
+export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1"
+
+if [ "${PORTA_SANITIZE_ONLY:-all}" != thread ]; then
+  asan_dir="${PORTA_ASAN_BUILD_DIR:-build-asan}"
+  echo "sanitize: ASan + UBSan build in $asan_dir"
+  cmake -S . -B "$asan_dir" "${common[@]}" -DPORTA_SANITIZE=address,undefined
+  cmake --build "$asan_dir" -j "$jobs"
+  ctest --test-dir "$asan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^(unit|slam|cli)$"
+fi
+
+if [ "${PORTA_SANITIZE_ONLY:-all}" != address ]; then
+  tsan_dir="${PORTA_TSAN_BUILD_DIR:-build-tsan}"
+  echo "sanitize: TSan build in $tsan_dir (threaded SLAM tests)"
+  cmake -S . -B "$tsan_dir" "${common[@]}" -DPORTA_SANITIZE=thread -DPORTA_BUILD_APPS=OFF
+  cmake --build "$tsan_dir" -j "$jobs" --target porta_slam_tests
+  ctest --test-dir "$tsan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^slam$" \
+    -R "LocalMapper|LoopClos|Relocal|Tracking|System|ThreadPool"
+fi
+echo "sanitize: done, no reports"
