@@ -12,7 +12,9 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 jobs="${PORTA_JOBS:-2}"
-common=(-G Ninja -DPORTA_WERROR=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g"
+# Warnings are errors in the main build; with sanitizers GCC warns falsely (-Wmaybe-uninitialized
+# inside <regex> at -O1), so here they are only warnings.
+common=(-G Ninja -DPORTA_WERROR=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1"
         -DPORTA_WITH_VULKAN=OFF -DPORTA_WITH_OPENCL=OFF -DPORTA_WITH_CUDA=OFF)
 
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
@@ -24,7 +26,7 @@ if [ "${PORTA_SANITIZE_ONLY:-all}" != thread ]; then
   echo "sanitize: ASan + UBSan build in $asan_dir"
   cmake -S . -B "$asan_dir" "${common[@]}" -DPORTA_SANITIZE=address,undefined
   cmake --build "$asan_dir" -j "$jobs"
-  ctest --test-dir "$asan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^(unit|slam|cli)$"
+  ctest --test-dir "$asan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^(unit|slam|cli|fuzz)$"
 fi
 
 if [ "${PORTA_SANITIZE_ONLY:-all}" != address ]; then

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
-# Configures (Ninja, warnings as errors), builds and runs every test: unit, quality and CLI.
-# Exits non-zero when the build or any test fails. Build folder: ./build, or $PORTA_BUILD_DIR.
-# Extra arguments go to CMake. Run ci/setup.sh first to install the dependencies.
+# Configures (Ninja, warnings as errors), builds and runs every test: unit, quality, CLI, fuzz
+# (the plain driver) and equivalence; then the sanitizer runs (ci/sanitize.sh: ASan + UBSan, TSan)
+# and a short libFuzzer run of every fuzz target (ci/fuzz.sh). Exits non-zero when a build or any
+# test fails. Build folder: ./build, or $PORTA_BUILD_DIR. Extra arguments go to CMake.
+# PORTA_SANITIZERS=off skips the sanitizer and libFuzzer runs (a quick local check; CI runs them).
+# Run ci/setup.sh first to install the dependencies.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -15,3 +18,8 @@ export PORTA_EQUIVALENCE_REQUIRE="${PORTA_EQUIVALENCE_REQUIRE:-opencl,vulkan}"
 cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON "$@"
 cmake --build "$build_dir" -j "$jobs"
 ctest --test-dir "$build_dir" --output-on-failure --no-tests=error -j "$jobs"
+
+if [ "${PORTA_SANITIZERS:-on}" != off ]; then
+  bash ci/sanitize.sh
+  bash ci/fuzz.sh
+fi

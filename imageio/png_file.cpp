@@ -1,7 +1,9 @@
 #include "imageio/png_file.hpp"
 
 #include <png.h>
+#include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <csetjmp>
 #include <cstdio>
@@ -172,18 +174,46 @@ GrayPng read_png_gray(const std::string& path, int max_side) {
   return out;
 }
 
+namespace {
+
+/// A file is written whole or not at all: into a temporary beside `path`, renamed over it once
+/// complete; on failure the temporary is removed and an existing `path` is left as it was.
+class TemporaryBeside {
+ public:
+  explicit TemporaryBeside(const std::string& path)
+      : path_(path), temporary_(path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter_++)) {}
+  ~TemporaryBeside() {
+    if (!committed_) std::remove(temporary_.c_str());
+  }
+  const std::string& path() const { return temporary_; }
+  void commit() {
+    if (std::rename(temporary_.c_str(), path_.c_str()) != 0)
+      throw PngError(PngError::Kind::unwritable, std::string("renaming the finished file failed: ") + std::strerror(errno));
+    committed_ = true;
+  }
+
+ private:
+  static inline std::atomic<unsigned long long> counter_{0};
+  std::string path_, temporary_;
+  bool committed_ = false;
+};
+
+}  // namespace
+
 void write_png_rgb(const std::string& path, int width, int height, const std::uint8_t* rgb,
                    std::size_t stride_bytes) {
+  TemporaryBeside file(path);
   png_image image{};
   image.version = PNG_IMAGE_VERSION;
   image.width = static_cast<png_uint_32>(width);
   image.height = static_cast<png_uint_32>(height);
   image.format = PNG_FORMAT_RGB;
-  if (!png_image_write_to_file(&image, path.c_str(), 0, rgb, static_cast<png_int_32>(stride_bytes), nullptr)) {
+  if (!png_image_write_to_file(&image, file.path().c_str(), 0, rgb, static_cast<png_int_32>(stride_bytes), nullptr)) {
     const std::string why = image.message;
     png_image_free(&image);
     throw PngError(PngError::Kind::unwritable, why.empty() ? "libpng could not write it" : why);
   }
+  file.commit();
 }
 
 namespace {
@@ -227,16 +257,21 @@ void write_png_gray(const std::string& path, int width, int height, const std::u
                     int compression_level) {
   if (width < 1 || height < 1 || compression_level < 0 || compression_level > 9)
     throw PngError(PngError::Kind::unwritable, "bad image size or compression level");
+  TemporaryBeside file(path);
   Writer w;
-  w.file = std::fopen(path.c_str(), "wb");
+  w.file = std::fopen(file.path().c_str(), "wb");
   if (!w.file) throw PngError(PngError::Kind::unwritable, std::strerror(errno));
   w.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &w, on_write_error, on_warning);
   if (w.png) w.info = png_create_info_struct(w.png);
   if (!w.png || !w.info) throw PngError(PngError::Kind::unwritable, "libpng could not allocate a writer");
   if (!write_gray_rows(w, width, height, gray, stride_bytes, compression_level))
     throw PngError(PngError::Kind::unwritable, std::string("libpng: ") + (w.message[0] ? w.message : "write failed"));
-  if (std::fflush(w.file) != 0 || std::ferror(w.file))
-    throw PngError(PngError::Kind::unwritable, std::strerror(errno));
+  const bool flushed = std::fflush(w.file) == 0 && !std::ferror(w.file);
+  const int error = errno;
+  const bool closed = std::fclose(w.file) == 0;
+  w.file = nullptr;
+  if (!flushed || !closed) throw PngError(PngError::Kind::unwritable, std::strerror(flushed ? errno : error));
+  file.commit();
 }
 
 }  // namespace porta::io

@@ -25,6 +25,7 @@
 #include "output_paths.hpp"
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
+#include "porta/slam/atomic_file.hpp"
 
 #if PORTA_APPS_HAVE_OPENCV
 #include <opencv2/core.hpp>
@@ -567,9 +568,13 @@ int run(const BenchOptions& options) {
   print_header(report);
   print_table(report);
   if (!options.json.empty()) {
-    std::ofstream json(options.json);
-    if (json) write_json(json, report);
-    if (!json) throw CliError("cannot write '" + options.json + "': check that its folder is writable");
+    std::ostringstream json;
+    write_json(json, report);
+    try {
+      slam::write_file_atomically(options.json, json.str());
+    } catch (const slam::AtomicWriteError& e) {
+      throw CliError(e.what());
+    }
     std::printf("wrote %s\n", options.json.c_str());
   }
   const auto failed = std::count_if(report.rows.begin(), report.rows.end(),

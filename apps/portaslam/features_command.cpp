@@ -31,6 +31,7 @@
 #include "image_files.hpp"
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
+#include "porta/slam/atomic_file.hpp"
 #include "synthetic_pair.hpp"
 
 namespace porta::app {
@@ -191,13 +192,20 @@ void check_output_path(const std::string& path) {
 #if PORTA_APPS_HAVE_OPENCV
 
 void write_png(const std::string& path, const cv::Mat& image) {
-  bool written = false;
+  // Encoded in memory, then written whole or not at all (atomic_file.hpp).
+  std::vector<std::uint8_t> bytes;
+  bool encoded = false;
   try {
-    written = cv::imwrite(path, image);
+    encoded = cv::imencode(std::filesystem::path(path).extension().string(), image, bytes);
   } catch (const cv::Exception& e) {
     throw CliError("cannot write '" + path + "': " + e.err + " (use a file name ending in .png)");
   }
-  if (!written) throw CliError("cannot write '" + path + "': check that its folder exists and is writable");
+  if (!encoded) throw CliError("cannot write '" + path + "': encoding failed (use a file name ending in .png)");
+  try {
+    slam::write_file_atomically(path, bytes);
+  } catch (const slam::AtomicWriteError& e) {
+    throw CliError(e.what());
+  }
 }
 
 // Draws the result and writes it; returns the line that says what was written.

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <future>
 #include <map>
 #include <memory>
@@ -15,7 +15,9 @@
 #include "cli_args.hpp"
 #include "loop_report.hpp"
 #include "output_paths.hpp"
+#include "process_memory.hpp"
 #include "porta/registry.hpp"
+#include "porta/slam/atomic_file.hpp"
 #include "porta/slam/evaluation.hpp"
 #include "porta/slam/settings_file.hpp"
 #include "porta/slam/system.hpp"
@@ -178,6 +180,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     }
     if (result.state == slam::TrackingState::not_initialized) waiting_reason = result.lost_reason;
     previous = result.state;
+    if (summary.frames % SlamRunSummary::kMemorySampleFrames == 0 || i + 1 == end) {
+      std::lock_guard<std::mutex> lock(system.map().mutex);
+      summary.memory.push_back({summary.frames, resident_mib(), system.map().num_keyframes(), system.map().num_points()});
+    }
     if (!options.quiet && (summary.frames % progress_every == 0 || i + 1 == end)) {
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
@@ -189,10 +195,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       }
       std::fprintf(stderr,
                    "frame %zu/%zu  %.1f frames/s  %s  inliers %d  keyframes %zu  map points %zu  loops %zu  "
-                   "relocalisations %zu\n",
+                   "relocalisations %zu  memory %.0f MiB\n",
                    summary.frames, total, summary.frames / std::max(seconds, 1e-9), slam::to_string(result.state),
                    result.matches_local_map, keyframes, points, system.loop_closer().loops_closed(),
-                   summary.relocalisations);
+                   summary.relocalisations, resident_mib());
     }
   }
   system.finish();
@@ -307,8 +313,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
               keyframes_path.c_str());
 
   const std::string json_path = options.json.empty() ? (fs::path(options.out) / "summary.json").string() : options.json;
-  std::ofstream json(json_path);
-  if (!json) throw CliError("cannot write '" + json_path + "'");
+  std::ostringstream json;
   json << "{\n  \"dataset\": \"" << options.path << "\",\n  \"backend\": \"" << options.backend
        << "\",\n  \"mode\": \"" << (options.mode == slam::RunMode::realtime ? "realtime" : "deterministic")
        << "\",\n  \"frames\": " << summary.frames << ",\n  \"tracked\": " << summary.tracked
@@ -321,7 +326,18 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     first = false;
   }
   json << "\n  },\n  \"rate\": " << options.rate << ",\n  \"late_frames\": " << summary.late_frames
-       << ",\n  " << loops.json << ",\n  \"ate\": " << ate_json << "\n}\n";
+       << ",\n  " << loops.json << ",\n  \"memory\": [";
+  for (std::size_t k = 0; k < summary.memory.size(); ++k) {
+    const SlamRunSummary::MemorySample& m = summary.memory[k];
+    json << (k == 0 ? "\n" : ",\n") << "    {\"frame\": " << m.frame << ", \"resident_mib\": " << m.resident_mib
+         << ", \"keyframes\": " << m.keyframes << ", \"map_points\": " << m.map_points << "}";
+  }
+  json << "\n  ],\n  \"ate\": " << ate_json << "\n}\n";
+  try {
+    slam::write_file_atomically(json_path, json.str());
+  } catch (const slam::AtomicWriteError& e) {
+    throw CliError(e.what());
+  }
   return summary;
 }
 

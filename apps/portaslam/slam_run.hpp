@@ -45,6 +45,14 @@ struct SlamRunSummary {
   std::size_t late_frames = 0;    ///< with a rate: frames that took longer than their interval
   std::size_t loops_detected = 0, loops_closed = 0, relocalisations = 0, global_ba_runs = 0;
   double map_load_ms = 0.0;
+  /// Every kMemorySampleFrames frames and at the end: resident memory and the map's size.
+  struct MemorySample {
+    std::size_t frame = 0;
+    double resident_mib = 0.0;
+    std::size_t keyframes = 0, map_points = 0;
+  };
+  static constexpr std::size_t kMemorySampleFrames = 500;
+  std::vector<MemorySample> memory;
 };
 
 /// Runs and reports. Throws CliError / DatasetError / SettingsFileError / BackendError with a

@@ -1,5 +1,7 @@
 #include "porta/slam/trajectory_io.hpp"
 
+#include "porta/slam/atomic_file.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -190,6 +192,15 @@ Trajectory read_kitti(const std::string& path, const std::vector<DataLine>& line
   return trajectory;
 }
 
+/// Writes a file whole or not at all (atomic_file.hpp); the error names what the file is.
+void write_whole(const std::string& path, const std::string& text, const char* what) {
+  try {
+    write_file_atomically(path, text);
+  } catch (const AtomicWriteError& e) {
+    throw TrajectoryError(std::string(what) + ": " + e.what());
+  }
+}
+
 /// Shortest text that reads back as exactly `value`.
 std::string exact(double value) {
   char buffer[64];
@@ -272,8 +283,7 @@ Trajectory read_trajectory(const std::string& path) {
 }
 
 void write_trajectory(const std::string& path, const Trajectory& trajectory, TrajectoryFormat format) {
-  std::ofstream out(path, std::ios::trunc);
-  if (!out) throw TrajectoryError("cannot write trajectory file " + path);
+  std::ostringstream out;
   if (format == TrajectoryFormat::tum) out << "# timestamp tx ty tz qx qy qz qw\n";
   if (format == TrajectoryFormat::euroc) {
     out << "#timestamp [ns], p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
@@ -301,16 +311,13 @@ void write_trajectory(const std::string& path, const Trajectory& trajectory, Tra
       }
     }
   }
-  out.flush();
-  if (!out) throw TrajectoryError("writing trajectory file " + path + " failed (disk full?)");
+  write_whole(path, out.str(), "trajectory file");
 }
 
 void write_kitti_times(const std::string& path, const Trajectory& trajectory) {
-  std::ofstream out(path, std::ios::trunc);
-  if (!out) throw TrajectoryError("cannot write times file " + path);
+  std::ostringstream out;
   for (const StampedPose& p : trajectory.poses) out << exact(p.time_s) << '\n';
-  out.flush();
-  if (!out) throw TrajectoryError("writing times file " + path + " failed (disk full?)");
+  write_whole(path, out.str(), "times file");
 }
 
 }  // namespace porta::slam

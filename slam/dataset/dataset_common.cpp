@@ -253,6 +253,9 @@ std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& stor
       return "not valid YAML: line " + std::to_string(std::stoi(match[1].str()) - added_lines) + ": " +
              match[2].str();
     return "not valid YAML: " + e.err;
+  } catch (const std::exception& e) {
+    // OpenCV's parser throws std::length_error on some malformed files (found by fuzzing).
+    return std::string("not valid YAML (the YAML parser gave up: ") + e.what() + ")";
   }
   if (!storage.isOpened()) return std::string("not valid YAML");
   if (!storage.root().isMap()) return std::string("not a YAML map of keys");
@@ -324,6 +327,18 @@ StereoCamera validated(StereoCamera camera, const std::string& source) {
   return camera;
 }
 
+/// Runs an OpenCV step of building or applying a rectification; an OpenCV assertion (a degenerate
+/// calibration: zero baseline, a singular K, ...) becomes a DatasetError in our words, so that no
+/// library text is all the user sees.
+template <typename Step>
+void opencv_step(const std::string& what, Step&& step) {
+  try {
+    step();
+  } catch (const cv::Exception& e) {
+    fail(what + " failed: the calibration is degenerate or inconsistent (OpenCV: " + e.err + ")");
+  }
+}
+
 }  // namespace
 
 Rectifier Rectifier::identity(const StereoCamera& camera) {
@@ -364,12 +379,14 @@ Rectifier Rectifier::from_calibration(const RawCamera& cam0, const RawCamera& ca
 
   const cv::Size size(cam0.width, cam0.height);
   cv::Mat R1, R2, P1, P2, Q;
-  cv::stereoRectify(to_cv(cam0.K), distortion_to_cv(cam0.D), to_cv(cam1.K), distortion_to_cv(cam1.D), size,
-                    to_cv(R), to_cv(t), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0, size);
-  cv::initUndistortRectifyMap(to_cv(cam0.K), distortion_to_cv(cam0.D), R1, P1, size, CV_32FC1, r.left_map_x_,
-                              r.left_map_y_);
-  cv::initUndistortRectifyMap(to_cv(cam1.K), distortion_to_cv(cam1.D), R2, P2, size, CV_32FC1, r.right_map_x_,
-                              r.right_map_y_);
+  opencv_step("stereo rectification from the two cameras' calibration", [&] {
+    cv::stereoRectify(to_cv(cam0.K), distortion_to_cv(cam0.D), to_cv(cam1.K), distortion_to_cv(cam1.D), size,
+                      to_cv(R), to_cv(t), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0, size);
+    cv::initUndistortRectifyMap(to_cv(cam0.K), distortion_to_cv(cam0.D), R1, P1, size, CV_32FC1, r.left_map_x_,
+                                r.left_map_y_);
+    cv::initUndistortRectifyMap(to_cv(cam1.K), distortion_to_cv(cam1.D), R2, P2, size, CV_32FC1, r.right_map_x_,
+                                r.right_map_y_);
+  });
   r.camera_.width = cam0.width;
   r.camera_.height = cam0.height;
   r.camera_.fx = P1.at<double>(0, 0);
@@ -392,8 +409,10 @@ Rectifier Rectifier::from_settings(const SettingsFile& settings, const StereoCam
   const cv::Size size(camera.width, camera.height);
   const auto build = [&](const RectificationSide& side, cv::Mat& map_x, cv::Mat& map_y) {
     const Eigen::Matrix3d new_k = side.P->leftCols<3>();
-    cv::initUndistortRectifyMap(to_cv(*side.K), distortion_to_cv(*side.D), to_cv(*side.R), to_cv(new_k), size,
-                                CV_32FC1, map_x, map_y);
+    opencv_step("rectification from the settings file's LEFT/RIGHT K, D, R, P", [&] {
+      cv::initUndistortRectifyMap(to_cv(*side.K), distortion_to_cv(*side.D), to_cv(*side.R), to_cv(new_k), size,
+                                  CV_32FC1, map_x, map_y);
+    });
   };
   build(settings.left, r.left_map_x_, r.left_map_y_);
   build(settings.right, r.right_map_x_, r.right_map_y_);
@@ -411,8 +430,10 @@ Rectifier Rectifier::undistort_only(const StereoCamera& camera, const std::vecto
   K(1, 1) = camera.fy;
   K(0, 2) = camera.cx;
   K(1, 2) = camera.cy;
-  cv::initUndistortRectifyMap(to_cv(K), distortion_to_cv(D), cv::Mat(), to_cv(K), size, CV_32FC1,
-                              r.left_map_x_, r.left_map_y_);
+  opencv_step("undistortion with the settings file's Camera.k1 k2 p1 p2 k3", [&] {
+    cv::initUndistortRectifyMap(to_cv(K), distortion_to_cv(D), cv::Mat(), to_cv(K), size, CV_32FC1,
+                                r.left_map_x_, r.left_map_y_);
+  });
   r.right_map_x_ = r.left_map_x_;
   r.right_map_y_ = r.left_map_y_;
   r.how_ = "undistorted with the settings file's Camera.k1 k2 p1 p2 k3";
@@ -424,7 +445,9 @@ Image Rectifier::apply(const cv::Mat& raw, int side) const {
   cv::Mat rectified;
   const cv::Mat& map_x = side == 0 ? left_map_x_ : right_map_x_;
   const cv::Mat& map_y = side == 0 ? left_map_y_ : right_map_y_;
-  cv::remap(raw, rectified, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  opencv_step("rectifying an image", [&] {
+    cv::remap(raw, rectified, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  });
   return to_image(rectified);
 }
 

@@ -2,6 +2,7 @@
 // raw (distorted, unrectified) cameras, rectified here (dataset_common.cpp's Rectifier). Ground
 // truth is of the body and is moved to the rectified left camera.
 #include <cerrno>
+#include <cmath>
 #include <charconv>
 #include <cstdint>
 #include <cstring>
@@ -9,6 +10,7 @@
 #include <map>
 
 #include "dataset_internal.hpp"
+#include "porta/settings.hpp"
 
 namespace porta::slam::detail {
 
@@ -104,10 +106,14 @@ class SensorReader {
       bad("camera_model", "is '" + *model + "': only 'pinhole' is supported");
     RawCamera cam;
     const auto resolution = numbers(required("resolution"), "resolution", 2, 2);
+    // Range first: casting a double beyond int's range is undefined behaviour.
+    for (const double side : resolution) {
+      if (!(side >= 1.0 && side <= kMaxImageSide) || side != std::floor(side))
+        bad("resolution", "must be two integers [width, height] in [1, " + std::to_string(kMaxImageSide) + "], found " +
+                              format_number(side));
+    }
     cam.width = static_cast<int>(resolution[0]);
     cam.height = static_cast<int>(resolution[1]);
-    if (resolution[0] != cam.width || resolution[1] != cam.height || cam.width < 1 || cam.height < 1)
-      bad("resolution", "must be two positive integers [width, height]");
     const auto k = numbers(required("intrinsics"), "intrinsics", 4, 4);
     if (k[0] <= 0.0 || k[1] <= 0.0) bad("intrinsics", "must have focal lengths fu, fv > 0");
     cam.K(0, 0) = k[0];

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "porta/slam/eval_report.hpp"
+#include "porta/slam/atomic_file.hpp"
 
 namespace porta::slam {
 
@@ -241,11 +242,11 @@ std::string evaluation_json(const EvaluationInputs& inputs, const EvaluationOpti
 void write_evaluation_json(const std::string& path, const EvaluationInputs& inputs,
                            const EvaluationOptions& options, const EvaluationResult& result) {
   const std::string text = evaluation_json(inputs, options, result);
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw EvaluationError("cannot write the JSON report '" + path + "': cannot open it for writing");
-  file << text;
-  file.flush();
-  if (!file) throw EvaluationError("cannot write the JSON report '" + path + "': write failed");
+  try {
+    write_file_atomically(path, text);
+  } catch (const AtomicWriteError& e) {
+    throw EvaluationError(std::string("JSON report: ") + e.what());
+  }
 }
 
 }  // namespace porta::slam

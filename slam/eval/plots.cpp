@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "porta/slam/eval_report.hpp"
+#include "porta/slam/atomic_file.hpp"
 
 namespace porta::slam {
 
@@ -215,13 +216,20 @@ void draw_title(cv::Mat& canvas, const std::string& title, const std::string& su
 }
 
 void save_png(const std::string& path, const cv::Mat& canvas) {
+  // Encoded in memory, then written whole or not at all (atomic_file.hpp).
+  std::vector<std::uint8_t> png;
   bool ok = false;
   try {
-    ok = cv::imwrite(path, canvas);
+    ok = cv::imencode(".png", canvas, png);
   } catch (const cv::Exception& e) {
-    throw EvaluationError("cannot write the plot '" + path + "': " + e.what());
+    throw EvaluationError("cannot write the plot '" + path + "': PNG encoding failed (" + e.err + ")");
   }
-  if (!ok) throw EvaluationError("cannot write the plot '" + path + "'");
+  if (!ok) throw EvaluationError("cannot write the plot '" + path + "': PNG encoding failed");
+  try {
+    write_file_atomically(path, png);
+  } catch (const AtomicWriteError& e) {
+    throw EvaluationError(std::string("plot: ") + e.what());
+  }
 }
 
 std::string fmt(const char* format, double value) {

@@ -11,11 +11,12 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 #include "imageio/png_file.hpp"
+#include "porta/slam/atomic_file.hpp"
 #include "porta/slam/render/sequence.hpp"
 
 namespace porta::slam::render {
@@ -30,15 +31,15 @@ std::string printf_string(const char* format, double v) {
   return buffer;
 }
 
-std::ofstream open_for_writing(const fs::path& path) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw RenderError("cannot write " + path.string() + ": check that the output folder is writable");
-  return out;
-}
+/// A text file is composed in memory, then written whole or not at all by finish().
+std::ostringstream open_for_writing(const fs::path&) { return std::ostringstream(); }
 
-void finish(std::ofstream& out, const fs::path& path) {
-  out.flush();
-  if (!out) throw RenderError("cannot write " + path.string() + " (disk full?)");
+void finish(std::ostringstream& out, const fs::path& path) {
+  try {
+    write_file_atomically(path.string(), out.str());
+  } catch (const AtomicWriteError& e) {
+    throw RenderError(e.what());
+  }
 }
 
 void make_folder(const fs::path& path) {
@@ -50,7 +51,7 @@ void make_folder(const fs::path& path) {
 
 void write_kitti_calib(const SequencePlan& plan, const fs::path& path) {
   const StereoCamera& c = plan.camera;
-  std::ofstream out = open_for_writing(path);
+  std::ostringstream out = open_for_writing(path);
   for (int k = 0; k < 4; ++k) {
     const double tx = (k % 2 == 1) ? -c.fx * c.baseline_m : 0.0;
     const double row[12] = {c.fx, 0, c.cx, tx, 0, c.fy, c.cy, 0, 0, 0, 1, 0};
@@ -65,7 +66,7 @@ void write_euroc_sensor(const SequencePlan& plan, const fs::path& path, int came
   const StereoCamera& c = plan.camera;
   const SE3 T = plan.T_body_cam0 * SE3(Eigen::Translation3d(camera * c.baseline_m, 0, 0));
   const Eigen::Matrix4d m = T.matrix();
-  std::ofstream out = open_for_writing(path);
+  std::ostringstream out = open_for_writing(path);
   out << "%YAML:1.0\n# General sensor definitions.\nsensor_type: camera\ncomment: PortaSLAM rendered cam" << camera
       << " (rectified pinhole: no distortion; cam1 is cam0 moved " << c.baseline_m << " m along its x axis)\n\n"
       << "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n  cols: 4\n  rows: 4\n  data: [";
@@ -111,7 +112,7 @@ void write_layout_files(const SequencePlan& plan) {
     for (const auto& f : plan.frames) relative.poses.push_back({f.time_s - plan.frames.front().time_s, first_inverse * f.input_cam});
     relative.poses.front().pose = SE3::Identity();  // exactly, not up to rounding
     const fs::path times = root / "times.txt";
-    std::ofstream out = open_for_writing(times);
+    std::ostringstream out = open_for_writing(times);
     for (const auto& p : relative.poses) out << printf_string("%e", p.time_s) << '\n';
     finish(out, times);
     try {
@@ -127,20 +128,20 @@ void write_layout_files(const SequencePlan& plan) {
     make_folder(dir / "data");
     write_euroc_sensor(plan, dir / "sensor.yaml", camera);
     const fs::path csv = dir / "data.csv";
-    std::ofstream out = open_for_writing(csv);
+    std::ostringstream out = open_for_writing(csv);
     out << "#timestamp [ns],filename\n";
     for (const auto& f : plan.frames) out << euroc_ns(f.time_s) << ',' << euroc_ns(f.time_s) << ".png\n";
     finish(out, csv);
   }
   {
     const fs::path body = mav / "body.yaml";
-    std::ofstream out = open_for_writing(body);
+    std::ostringstream out = open_for_writing(body);
     out << "%YAML:1.0\ncomment: PortaSLAM rendered sequence (" << plan.source << ")\n";
     finish(out, body);
   }
   make_folder(mav / "state_groundtruth_estimate0");
   const fs::path gt = mav / "state_groundtruth_estimate0" / "data.csv";
-  std::ofstream out = open_for_writing(gt);
+  std::ostringstream out = open_for_writing(gt);
   out << "#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z []\n";
   for (const auto& f : plan.frames) {
     const Eigen::Quaterniond q(f.input_body.rotation());
