@@ -2,7 +2,8 @@
 # Sanitizer runs (docs/RELIABILITY.md): builds PortaSLAM twice more and runs
 #  1. the unit, slam and cli tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #     (build-asan; halt_on_error, leaks checked), and
-#  2. the threaded SLAM tests (local mapping, loop closing, tracking, the System) under
+#  2. the threaded tests (local mapping, loop closing, relocalisation, tracking, the cpu backend's
+#     thread pool, frames in flight, the parallel renderer and dataset loads) under
 #     ThreadSanitizer (build-tsan).
 # The GPU backends are left out of these builds: lavapipe and PoCL are not instrumented (their
 # own leaks and races would be reported as ours), and the equivalence suite runs them in the
@@ -25,7 +26,10 @@ if [ "${PORTA_SANITIZE_ONLY:-all}" != thread ]; then
   asan_dir="${PORTA_ASAN_BUILD_DIR:-build-asan}"
   echo "sanitize: ASan + UBSan build in $asan_dir"
   cmake -S . -B "$asan_dir" "${common[@]}" -DPORTA_SANITIZE=address,undefined
-  cmake --build "$asan_dir" -j "$jobs"
+  # Only what the unit, slam, cli and fuzz tests run (not the equivalence or quality suites).
+  cmake --build "$asan_dir" -j "$jobs" --target portaslam porta_place_bench porta_unit_tests porta_slam_tests \
+    porta_fuzz_make_seeds porta_fuzz_png porta_fuzz_settings porta_fuzz_trajectory porta_fuzz_kitti \
+    porta_fuzz_euroc porta_fuzz_map_file
   ctest --test-dir "$asan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^(unit|slam|cli|fuzz)$"
 fi
 
@@ -33,8 +37,8 @@ if [ "${PORTA_SANITIZE_ONLY:-all}" != address ]; then
   tsan_dir="${PORTA_TSAN_BUILD_DIR:-build-tsan}"
   echo "sanitize: TSan build in $tsan_dir (threaded SLAM tests)"
   cmake -S . -B "$tsan_dir" "${common[@]}" -DPORTA_SANITIZE=thread -DPORTA_BUILD_APPS=OFF
-  cmake --build "$tsan_dir" -j "$jobs" --target porta_slam_tests
-  ctest --test-dir "$tsan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^slam$" \
-    -R "LocalMapper|LoopClos|Relocal|Tracking|System|ThreadPool"
+  cmake --build "$tsan_dir" -j "$jobs" --target porta_unit_tests porta_slam_tests
+  ctest --test-dir "$tsan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^(unit|slam)$" \
+    -R "^(Mapping|LoopClosing|Relocalisation|Tracking|ThreadPool|FrontendInFlight|RenderSequence)\.|LoadFromSeveralThreads"
 fi
 echo "sanitize: done, no reports"

@@ -101,8 +101,6 @@ void apply_value(BenchOptions& o, const std::string& option, const std::string& 
     o.warmup = parse_count(option, value, 0);
   } else if (option == "--threads") {
     o.threads = parse_threads(option, value);
-    if (o.threads < 0)
-      throw CliError("option --threads expects a count >= 0 (0 = all hardware threads), got " + value);
   } else if (option == "--device") {
     o.device = value;
   } else if (option == "--json") {

@@ -88,9 +88,6 @@ FeaturesOptions parse_features_options(const std::vector<std::string>& args) {
   if (options.images.size() > 2)
     throw CliError("too many images: expected IMAGE or LEFT RIGHT, got " + std::to_string(options.images.size()) +
                    " (the third is '" + options.images[2] + "')");
-  if (options.threads < 0)
-    throw CliError("option --threads expects a count >= 0 (0 = all hardware threads), got " +
-                   std::to_string(options.threads));
   if (options.repeat < 1 || options.repeat > 10000)
     throw CliError("option --repeat expects a count in [1, 10000], got " + std::to_string(options.repeat));
   if (options.out.empty()) throw CliError("option --out needs a file name");

@@ -19,10 +19,14 @@ struct FastCrfParams {  // fast_crf.comp (parameter buffer)
   GlslLevels src, dst;
   std::int32_t eps, edge, pad[2];
 };
-struct CullCellsParams {  // cull_cells.comp (parameter buffer)
+struct CullCellsParams {  // cull_cells.comp and cull_cells_small.comp (parameter buffer)
   GlslLevels layout;
   GlslCells cells;
+  std::int32_t end_cell, pad[3];  // cull_cells_small.comp only
 };
+/// Cells of at most this many pixels are culled one invocation per cell (cull_cells_small.comp):
+/// a 64-wide workgroup and its barriers for a handful of pixels cost far more than the scan.
+constexpr std::int64_t kSmallCellPixels = 256;
 struct PfaStepParams {  // pfa_accumulate/decide/apply.comp (push constants)
   std::int32_t scales[kMaxLevels];
   std::int32_t total_cells, num_scales, width0, height0, reach, pad[3];
@@ -57,6 +61,7 @@ void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
 
 // §3.4: one workgroup per cell of every level, one dispatch; the workgroup reduces the cell
 // through shared memory (no subgroup operations, so any subgroup size gives the same bytes).
+// Small cells: one invocation per cell instead (cull_cells_small.comp), the same bytes.
 void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                                const CellLayout& cell_layout, Buffer& cells) {
   if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
@@ -76,8 +81,16 @@ void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
     require_plane_inside(responses, p, 2, "cull_cells", "response level");
   require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells",
                 "the cell array");
-  const CullCellsParams p{to_glsl(response_layout, "cull_cells"), to_glsl(cell_layout, "cull_cells")};
-  rt().dispatch("cull_cells", {&responses, &cells}, p, Work::groups(static_cast<std::uint64_t>(end_cell)));
+  std::int64_t largest_cell = 0;
+  for (const LevelCells& c : cell_layout.levels)
+    largest_cell = std::max(largest_cell, static_cast<std::int64_t>(c.cell_w) * c.cell_h);
+  const CullCellsParams p{to_glsl(response_layout, "cull_cells"), to_glsl(cell_layout, "cull_cells"),
+                          static_cast<std::int32_t>(end_cell), {0, 0, 0}};
+  if (largest_cell <= kSmallCellPixels) {
+    rt().dispatch("cull_cells_small", {&responses, &cells}, p, Work::items(static_cast<std::uint64_t>(end_cell)));
+  } else {
+    rt().dispatch("cull_cells", {&responses, &cells}, p, Work::groups(static_cast<std::uint64_t>(end_cell)));
+  }
 }
 
 // §3.5: three dispatches over the cells (accumulate with order-independent atomics, decide,
