@@ -65,3 +65,11 @@ if(TARGET porta_eval)
                  STDERR "option --json: cannot write 'no/such/e.json': the folder 'no/such' does not exist"
                  ARGS eval rel_gt.txt rel_gt.txt --json no/such/e.json)
 endif()
+
+# ---- Honest results: lost frames are counted where the ATE is reported --------------------------------
+if(TARGET porta_render AND TARGET porta_slam)
+  add_test(NAME cli.run_lost_frames_reported_on_the_ate_line
+           COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/lost-report
+                   -P ${CMAKE_CURRENT_LIST_DIR}/slam_lost_report.cmake)
+  set_tests_properties(cli.run_lost_frames_reported_on_the_ate_line PROPERTIES LABELS cli TIMEOUT 300)
+endif()
