@@ -20,7 +20,7 @@ common=(-G Ninja -DPORTA_WERROR=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_C
 
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
-export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/ci/tsan.supp"
 
 if [ "${PORTA_SANITIZE_ONLY:-all}" != thread ]; then
   asan_dir="${PORTA_ASAN_BUILD_DIR:-build-asan}"

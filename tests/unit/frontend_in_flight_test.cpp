@@ -4,6 +4,7 @@
 // GPU backend behaves), and misuse is a clear error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <set>
@@ -111,10 +112,12 @@ class DeferredQueues final : public Backend {
 void expect_same(const Features& want, const Features& got, const std::string& what) {
   ASSERT_EQ(want.keypoints.size(), got.keypoints.size()) << what;
   ASSERT_EQ(want.descriptors.size(), got.descriptors.size()) << what;
-  EXPECT_EQ(0, std::memcmp(want.keypoints.data(), got.keypoints.data(), want.keypoints.size() * sizeof(Keypoint)))
+  // Element-wise (an empty vector's data() may be null, which memcmp must not get).
+  EXPECT_TRUE(std::equal(want.keypoints.begin(), want.keypoints.end(), got.keypoints.begin(),
+                         [](const Keypoint& a, const Keypoint& b) { return std::memcmp(&a, &b, sizeof a) == 0; }))
       << what << ": keypoints differ";
-  EXPECT_EQ(0, std::memcmp(want.descriptors.data(), got.descriptors.data(),
-                           want.descriptors.size() * sizeof(Descriptor)))
+  EXPECT_TRUE(std::equal(want.descriptors.begin(), want.descriptors.end(), got.descriptors.begin(),
+                         [](const Descriptor& a, const Descriptor& b) { return std::memcmp(&a, &b, sizeof a) == 0; }))
       << what << ": descriptors differ";
   EXPECT_EQ(want.keypoints_per_level, got.keypoints_per_level) << what;
 }
@@ -123,7 +126,8 @@ void expect_same(const StereoFeatures& want, const StereoFeatures& got, const st
   expect_same(want.left, got.left, what + ", left");
   expect_same(want.right, got.right, what + ", right");
   ASSERT_EQ(want.matches.size(), got.matches.size()) << what;
-  EXPECT_EQ(0, std::memcmp(want.matches.data(), got.matches.data(), want.matches.size() * sizeof(StereoMatch)))
+  EXPECT_TRUE(std::equal(want.matches.begin(), want.matches.end(), got.matches.begin(),
+                         [](const StereoMatch& a, const StereoMatch& b) { return std::memcmp(&a, &b, sizeof a) == 0; }))
       << what << ": matches differ";
 }
 
