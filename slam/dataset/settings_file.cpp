@@ -11,6 +11,9 @@ namespace {
 
 using detail::in_quotes;
 
+/// Largest side of a matrix a settings file may hold (K, D, R, P are at most 3x4 or 1x5).
+constexpr int kMaxMatrixSide = 16;
+
 class Reader {
  public:
   Reader(const cv::FileStorage& storage, const std::string& path) : storage_(storage), path_(path) {}
@@ -66,16 +69,31 @@ class Reader {
       return cv::Mat(values, true).reshape(1, 1);
     }
     if (!node.isMap()) fail(key, "must be an !!opencv-matrix, found " + kind(node));
-    try {
-      node >> m;
-    } catch (const cv::Exception& e) {
-      fail(key, "is not a readable !!opencv-matrix (rows, cols, dt, data): " + e.err);
+    // Read here rather than by OpenCV's `node >> m`, which allocates rows x cols from the header
+    // before it looks at the data (a fuzzed "cols: 2000000000" asked for gigabytes).
+    const auto size = [&](const char* field) {
+      const cv::FileNode n = node[field];
+      if (!n.isInt()) fail(key, std::string("is not a readable !!opencv-matrix: '") + field + "' must be an integer");
+      const int v = static_cast<int>(n);
+      if (v < 1 || v > kMaxMatrixSide)
+        fail(key, std::string("is not a readable !!opencv-matrix: '") + field + "' is " + std::to_string(v) +
+                      ", outside [1, " + std::to_string(kMaxMatrixSide) + "]");
+      return v;
+    };
+    const int rows = size("rows"), cols = size("cols");
+    const cv::FileNode data = node["data"];
+    if (!data.isSeq()) fail(key, "is not a readable !!opencv-matrix: 'data' must be a list of numbers");
+    if (data.size() != static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols))
+      fail(key, "is not a readable !!opencv-matrix: " + std::to_string(rows) + "x" + std::to_string(cols) +
+                    " needs " + std::to_string(rows * cols) + " numbers, 'data' has " + std::to_string(data.size()));
+    m.create(rows, cols, CV_64F);
+    int i = 0;
+    for (const auto& item : data) {
+      if (!item.isInt() && !item.isReal()) fail(key, "has a 'data' element that is " + kind(item) + ", not a number");
+      m.at<double>(i / cols, i % cols) = item.isInt() ? static_cast<double>(static_cast<int>(item)) : static_cast<double>(item);
+      ++i;
     }
-    if (m.empty()) fail(key, "is not a readable !!opencv-matrix (rows, cols, dt, data)");
-    if (m.channels() != 1) fail(key, "must be a one-channel matrix");
-    cv::Mat d;
-    m.convertTo(d, CV_64F);
-    return d;
+    return m;
   }
 
   template <int Rows, int Cols>

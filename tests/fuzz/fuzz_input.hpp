@@ -20,11 +20,20 @@ namespace porta::fuzz {
 
 namespace fs = std::filesystem;
 
-/// A folder of this process under the temporary directory, made once and removed at exit.
+/// Where inputs are written: $PORTA_FUZZ_SCRATCH, else /dev/shm (memory: a file per execution
+/// costs no disk), else the temporary directory.
+inline fs::path scratch_root() {
+  if (const char* env = std::getenv("PORTA_FUZZ_SCRATCH"); env != nullptr && *env != '\0') return env;
+  std::error_code error;
+  if (fs::is_directory("/dev/shm", error) && ::access("/dev/shm", W_OK) == 0) return "/dev/shm";
+  return fs::temp_directory_path();
+}
+
+/// A folder of this process under scratch_root(), made once and removed at exit.
 inline const fs::path& scratch_folder() {
   static const struct Folder {
     fs::path path;
-    Folder() : path(fs::temp_directory_path() / ("porta-fuzz-" + std::to_string(::getpid()))) {
+    Folder() : path(scratch_root() / ("porta-fuzz-" + std::to_string(::getpid()))) {
       fs::create_directories(path);
     }
     ~Folder() {

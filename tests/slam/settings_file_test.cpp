@@ -245,6 +245,19 @@ TEST(SettingsFile, DistortionCoefficientsBeyondAnyLensAreRefused) {
   EXPECT_NE(message.find("fx 1e+300 is outside"), std::string::npos) << message;
 }
 
+TEST(SettingsFile, AMatrixHeaderIsCheckedBeforeAnythingIsAllocated) {
+  // Found by fuzzing: OpenCV's own matrix reader allocated rows x cols from the header first.
+  const TempFile huge("%YAML:1.0\nLEFT.K: !!opencv-matrix\n   rows: 3\n   cols: 2000000000\n   dt: d\n"
+                      "   data: [1.0, 0.0, 0.0]\n");
+  std::string message = error_of([&] { read_settings_file(huge.path()); });
+  EXPECT_NE(message.find("key 'LEFT.K' is not a readable !!opencv-matrix: 'cols' is 2000000000, outside [1, 16]"),
+            std::string::npos) << message;
+  const TempFile short_data("%YAML:1.0\nLEFT.K: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                            "   data: [1.0, 0.0, 0.0]\n");
+  message = error_of([&] { read_settings_file(short_data.path()); });
+  EXPECT_NE(message.find("3x3 needs 9 numbers, 'data' has 3"), std::string::npos) << message;
+}
+
 }  // namespace
 }  // namespace porta::slam
 
