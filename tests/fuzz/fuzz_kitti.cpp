@@ -1,10 +1,7 @@
 // Fuzz target: the KITTI reader's text files, calib.txt and times.txt (slam/dataset/kitti_dataset.cpp),
 // in a folder whose images are valid: the input is calib.txt, then optionally a form feed and
 // times.txt. Opens the dataset and loads a frame. Documented failure: DatasetError.
-#include <algorithm>
-
-#include "fuzz_input.hpp"
-#include "imageio/png_file.hpp"
+#include "dataset_scaffold.hpp"
 #include "porta/slam/dataset.hpp"
 
 namespace {
@@ -13,13 +10,8 @@ namespace {
 const porta::fuzz::fs::path& kitti_folder() {
   static const porta::fuzz::fs::path root = [] {
     const auto root = porta::fuzz::scratch_folder() / "kitti";
-    std::vector<std::uint8_t> pixels(64 * 48);
-    for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<std::uint8_t>((i * 37) ^ (i >> 3));
-    for (const char* side : {"image_0", "image_1"}) {
-      porta::fuzz::fs::create_directories(root / side);
-      for (const char* name : {"000000.png", "000001.png"})
-        porta::io::write_png_gray((root / side / name).string(), 64, 48, pixels.data(), 64);
-    }
+    porta::fuzz::write_scaffold_pngs({root / "image_0" / "000000.png", root / "image_0" / "000001.png",
+                                      root / "image_1" / "000000.png", root / "image_1" / "000001.png"});
     return root;
   }();
   return root;
@@ -31,13 +23,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace porta::slam;
   namespace fz = porta::fuzz;
   const auto& root = kitti_folder();
-  const std::span<const std::uint8_t> input(data, size);
-  const auto split = std::find(input.begin(), input.end(), std::uint8_t{'\f'});
-  const std::size_t at = static_cast<std::size_t>(split - input.begin());
-  fz::write_input(root / "calib.txt", input.first(at));
+  const auto parts = fz::split_at_form_feeds({data, size}, 2);
+  fz::write_input(root / "calib.txt", parts[0]);
   std::error_code ignored;
   fz::fs::remove(root / "times.txt", ignored);
-  if (split != input.end()) fz::write_input(root / "times.txt", input.subspan(at + 1));
+  if (parts.size() > 1) fz::write_input(root / "times.txt", parts[1]);
   try {
     const auto dataset = open_dataset(DatasetKind::kitti, root.string());
     const StereoPair pair = dataset->load(0);
