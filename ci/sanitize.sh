@@ -18,6 +18,10 @@ jobs="${PORTA_JOBS:-2}"
 common=(-G Ninja -DPORTA_WERROR=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1"
         -DPORTA_WITH_VULKAN=OFF -DPORTA_WITH_OPENCL=OFF -DPORTA_WITH_CUDA=OFF)
 
+# These builds have no GPU backend by design: tests that compare backends skip them, saying so,
+# instead of failing for a backend that ci/test.sh requires of the main build.
+unset PORTA_EQUIVALENCE_REQUIRE
+
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/ci/tsan.supp"
