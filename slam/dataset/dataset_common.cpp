@@ -221,6 +221,34 @@ std::optional<std::string> find_wide_integer(const std::string& content) {
   return std::nullopt;
 }
 
+/// YAML requires every key of the root mapping at the same indentation, so no content line may be
+/// indented less than the first one. OpenCV 4.6's parser does not check this and loops forever on
+/// some such files (found by fuzzing: " t:d\n3, -\n\n"), so it is checked here first.
+std::optional<std::string> find_dedent_below_root(const std::string& content, int added_lines) {
+  std::size_t root_indent = std::string::npos;
+  int line = 0, root_line = 0;
+  for (std::size_t start = 0; start < content.size();) {
+    const std::size_t end = std::min(content.find('\n', start), content.size());
+    ++line;
+    const std::size_t first = content.find_first_not_of(" \t\r", start);
+    const bool blank = first == std::string::npos || first >= end || content[first] == '#';
+    const bool marker = !blank && (content[first] == '%' || content.compare(first, 3, "---") == 0 ||
+                                   content.compare(first, 3, "...") == 0);
+    if (!blank && !marker) {
+      const std::size_t indent = first - start;
+      if (root_indent == std::string::npos) {
+        root_indent = indent;
+        root_line = line;
+      } else if (indent < root_indent) {
+        return "not valid YAML: line " + std::to_string(line - added_lines) + " is indented less than the first key (line " +
+               std::to_string(root_line - added_lines) + ")";
+      }
+    }
+    start = end + 1;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& storage) {
@@ -243,6 +271,7 @@ std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& stor
     content = "%YAML:1.0\n" + content;
     added_lines = 1;
   }
+  if (const auto bad = find_dedent_below_root(content, added_lines)) return *bad;
   try {
     storage.open(content, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   } catch (const cv::Exception& e) {

@@ -258,6 +258,17 @@ TEST(SettingsFile, AMatrixHeaderIsCheckedBeforeAnythingIsAllocated) {
   EXPECT_NE(message.find("3x3 needs 9 numbers, 'data' has 3"), std::string::npos) << message;
 }
 
+TEST(SettingsFile, ALineIndentedLessThanTheFirstKeyIsRefusedBeforeOpenCVParsesIt) {
+  // Found by fuzzing: OpenCV 4.6's YAML parser never returns on this 11-byte file.
+  const TempFile hang(" t:d\n3, -\n\n");
+  const std::string message = error_of([&] { read_settings_file(hang.path()); });
+  EXPECT_NE(message.find("not valid YAML: line 2 is indented less than the first key (line 1)"), std::string::npos)
+      << message;
+  // Indented keys that stay indented, comments and directives are still fine.
+  const TempFile indented("%YAML:1.0\n# comment\n  Camera.fx: 500.0\n  Camera.fy: 500.0\n");
+  EXPECT_NO_THROW(read_settings_file(indented.path()));
+}
+
 }  // namespace
 }  // namespace porta::slam
 
