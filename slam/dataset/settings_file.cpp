@@ -66,7 +66,11 @@ class Reader {
         values.push_back(item.isInt() ? static_cast<double>(static_cast<int>(item))
                                       : static_cast<double>(item));
       }
-      return cv::Mat(values, true).reshape(1, 1);
+      // An empty list is an error here (found by fuzzing: cv::Mat::reshape threw on it).
+      if (values.empty()) fail(key, "is an empty list; expected numbers");
+      cv::Mat row(1, static_cast<int>(values.size()), CV_64F);
+      for (std::size_t i = 0; i < values.size(); ++i) row.at<double>(0, static_cast<int>(i)) = values[i];
+      return row;
     }
     if (!node.isMap()) fail(key, "must be an !!opencv-matrix, found " + kind(node));
     // Read here rather than by OpenCV's `node >> m`, which allocates rows x cols from the header

@@ -269,6 +269,13 @@ TEST(SettingsFile, ALineIndentedLessThanTheFirstKeyIsRefusedBeforeOpenCVParsesIt
   EXPECT_NO_THROW(read_settings_file(indented.path()));
 }
 
+TEST(SettingsFile, AnEmptyListIsRefusedWithTheKey) {
+  // Found by fuzzing: an empty "D: []" made OpenCV throw from inside our reader.
+  const TempFile empty("%YAML:1.0\nLEFT.D: []\n");
+  const std::string message = error_of([&] { read_settings_file(empty.path()); });
+  EXPECT_NE(message.find("key 'LEFT.D' is an empty list; expected numbers"), std::string::npos) << message;
+}
+
 }  // namespace
 }  // namespace porta::slam
 
