@@ -1,5 +1,7 @@
 #include "porta/slam/dataset.hpp"
 
+#include <opencv2/core.hpp>
+
 #include "dataset_internal.hpp"
 
 namespace porta::slam {
@@ -43,13 +45,19 @@ std::unique_ptr<StereoDataset> open_dataset(DatasetKind kind, const std::string&
                      : kind == DatasetKind::euroc ? "EuRoC dataset folder"
                                                   : "stereo folder";
   detail::require_folder(path, what);
-  switch (kind) {
-    case DatasetKind::kitti:
-      return detail::open_kitti(path, options);
-    case DatasetKind::euroc:
-      return detail::open_euroc(path, options);
-    case DatasetKind::folder:
-      return detail::open_folder(path, options);
+  // An OpenCV exception from inside a reader (a malformed YAML tree, found by fuzzing) is named.
+  try {
+    switch (kind) {
+      case DatasetKind::kitti:
+        return detail::open_kitti(path, options);
+      case DatasetKind::euroc:
+        return detail::open_euroc(path, options);
+      case DatasetKind::folder:
+        return detail::open_folder(path, options);
+    }
+  } catch (const cv::Exception& e) {
+    detail::fail(std::string(what) + " " + detail::in_quotes(path) + ": a file in it could not be read (OpenCV: " +
+                 e.err + ")");
   }
   detail::fail("unknown dataset kind");
 }

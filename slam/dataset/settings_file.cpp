@@ -159,7 +159,23 @@ class Reader {
 
 }  // namespace
 
+namespace {
+SettingsFile read_settings_file_unguarded(const std::string& path);
+}  // namespace
+
 SettingsFile read_settings_file(const std::string& path) {
+  // OpenCV's FileNode accessors throw cv::Exception on some malformed trees (found by fuzzing):
+  // the message names the file instead.
+  try {
+    return read_settings_file_unguarded(path);
+  } catch (const cv::Exception& e) {
+    throw SettingsFileError("settings file " + in_quotes(path) + ": not a readable settings file (OpenCV: " + e.err + ")");
+  }
+}
+
+namespace {
+
+SettingsFile read_settings_file_unguarded(const std::string& path) {
   cv::FileStorage storage;
   if (const auto error = detail::open_yaml(path, storage))
     throw SettingsFileError("settings file " + in_quotes(path) + ": " + *error);
@@ -205,6 +221,8 @@ SettingsFile read_settings_file(const std::string& path) {
                             detail::format_number(*s.fps));
   return s;
 }
+
+}  // namespace
 
 void SettingsFile::check_rectification_complete() const {
   if (!left.any() && !right.any()) return;

@@ -276,6 +276,13 @@ TEST(SettingsFile, AnEmptyListIsRefusedWithTheKey) {
   EXPECT_NE(message.find("key 'LEFT.D' is an empty list; expected numbers"), std::string::npos) << message;
 }
 
+TEST(SettingsFile, AnOpenCVExceptionFromAMalformedTreeIsNamed) {
+  // Found by fuzzing: cv::FileStorage::operator[] threw "isMap()" on this file.
+  const TempFile odd(std::string(" o%Y, CALIfpsdt: d\n \n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n--------,\n Camera.fps# 0000no   ls: ------/--- 0.0------,-"));
+  const std::string message = error_of([&] { read_settings_file(odd.path()); });
+  EXPECT_NE(message.find("not a readable settings file (OpenCV: "), std::string::npos) << message;
+}
+
 }  // namespace
 }  // namespace porta::slam
 
