@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Configures (Ninja, warnings as errors), builds and runs every test: unit, quality, CLI, fuzz
 # (the plain driver) and equivalence; then the sanitizer runs (ci/sanitize.sh: ASan + UBSan with
-# the fuzz targets' plain driver, TSan). Exits non-zero when a build or any
-# test fails. Build folder: ./build, or $PORTA_BUILD_DIR. Extra arguments go to CMake.
-# PORTA_SANITIZERS=off skips the sanitizer runs (a quick local check; CI runs them).
+# the fuzz targets' plain driver, TSan) and the short libFuzzer run (ci/fuzz.sh: 20 000
+# executions per target, fixed seed, about a minute after its build). Exits non-zero when a build
+# or any test fails. Build folder: ./build, or $PORTA_BUILD_DIR. Extra arguments go to CMake.
+# PORTA_SANITIZERS=off skips the sanitizer and libFuzzer runs (a quick local check; CI runs them).
 # Run ci/setup.sh first to install the dependencies.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -20,8 +21,8 @@ cmake --build "$build_dir" -j "$jobs"
 ctest --test-dir "$build_dir" --output-on-failure --no-tests=error -j "$jobs"
 
 # The fuzz targets run in ctest above and under ASan + UBSan in ci/sanitize.sh (the plain driver:
-# seeds and deterministic mutations). The libFuzzer run (ci/fuzz.sh) is not part of this command
-# while it can reach a known hang inside OpenCV's YAML parser (docs/RELIABILITY.md, "Open").
+# seeds and deterministic mutations), then with libFuzzer's coverage-guided mutations.
 if [ "${PORTA_SANITIZERS:-on}" != off ]; then
   bash ci/sanitize.sh
+  bash ci/fuzz.sh
 fi

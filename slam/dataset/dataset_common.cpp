@@ -1,17 +1,14 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <regex>
 #include <sstream>
 
 #include "dataset_internal.hpp"
@@ -21,7 +18,13 @@
 
 namespace porta::slam::detail {
 
-std::string in_quotes(const fs::path& path) { return "'" + path.string() + "'"; }
+std::string in_quotes(const fs::path& path) {
+  // Appended piecewise: GCC 12 reports a false -Wrestrict on "'" + text + "'" here.
+  std::string quoted(1, '\'');
+  quoted += path.string();
+  quoted += '\'';
+  return quoted;
+}
 
 void fail(const std::string& message) { throw DatasetError(message); }
 
@@ -191,104 +194,6 @@ Image to_image(const cv::Mat& gray) {
   for (int y = 0; y < gray.rows; ++y)
     std::memcpy(image.row(y), gray.ptr<std::uint8_t>(y), static_cast<std::size_t>(gray.cols));
   return image;
-}
-
-namespace {
-
-/// The first integer literal (digits not touching a letter, digit, '.' or '_') beyond 32 bits,
-/// described with its line; nullopt when there is none.
-std::optional<std::string> find_wide_integer(const std::string& content) {
-  const auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_'; };
-  int line = 1;
-  for (std::size_t i = 0; i < content.size(); ++i) {
-    if (content[i] == '\n') ++line;
-    if (!std::isdigit(static_cast<unsigned char>(content[i])) || (i > 0 && word_char(content[i - 1]))) continue;
-    std::size_t end = i;
-    while (end < content.size() && std::isdigit(static_cast<unsigned char>(content[end]))) ++end;
-    const bool whole = end == content.size() || !(word_char(content[end]) || content[end] == 'e' || content[end] == 'E');
-    const std::size_t first = i > 0 && (content[i - 1] == '-' || content[i - 1] == '+') ? i - 1 : i;
-    if (whole) {
-      long long value = 0;  // of the digits; the sign allows one more below zero
-      const auto result = std::from_chars(content.data() + i, content.data() + end, value);
-      const long long limit = content[first] == '-' ? -static_cast<long long>(std::numeric_limits<int>::min())
-                                                    : std::numeric_limits<int>::max();
-      if (result.ec == std::errc::result_out_of_range || value > limit)
-        return "line " + std::to_string(line) + ": the integer " + content.substr(first, end - first) +
-               " is out of range (beyond 32 bits)";
-    }
-    i = end > i ? end - 1 : i;
-  }
-  return std::nullopt;
-}
-
-/// YAML requires every key of the root mapping at the same indentation, so no content line may be
-/// indented less than the first one. OpenCV 4.6's parser does not check this and loops forever on
-/// some such files (found by fuzzing: " t:d\n3, -\n\n"), so it is checked here first.
-std::optional<std::string> find_dedent_below_root(const std::string& content, int added_lines) {
-  std::size_t root_indent = std::string::npos;
-  int line = 0, root_line = 0;
-  for (std::size_t start = 0; start < content.size();) {
-    const std::size_t end = std::min(content.find('\n', start), content.size());
-    ++line;
-    const std::size_t first = content.find_first_not_of(" \t\r", start);
-    const bool blank = first == std::string::npos || first >= end || content[first] == '#';
-    const bool marker = !blank && (content[first] == '%' || content.compare(first, 3, "---") == 0 ||
-                                   content.compare(first, 3, "...") == 0);
-    if (!blank && !marker) {
-      const std::size_t indent = first - start;
-      if (root_indent == std::string::npos) {
-        root_indent = indent;
-        root_line = line;
-      } else if (indent < root_indent) {
-        return "not valid YAML: line " + std::to_string(line - added_lines) + " is indented less than the first key (line " +
-               std::to_string(root_line - added_lines) + ")";
-      }
-    }
-    start = end + 1;
-  }
-  return std::nullopt;
-}
-
-}  // namespace
-
-std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& storage) {
-  std::error_code ec;
-  const auto status = fs::status(path, ec);
-  if (!fs::exists(status)) return std::string("no such file");
-  if (fs::is_directory(status)) return std::string("it is a folder, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return std::string("cannot be opened: ") + std::strerror(errno);
-  std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (trim(content).empty()) return std::string("the file is empty");
-  if (content.find('\0') != std::string::npos) return std::string("not a YAML file (binary content)");
-  // OpenCV stores an integer literal in an int and wraps one beyond 32 bits ("Camera.width:
-  // 4294968538" reads as 1242): such a literal is refused here, before it can pass a range check.
-  if (const auto wide = find_wide_integer(content)) return *wide;
-  // OpenCV's YAML reader insists on the "%YAML" directive; plain YAML files (a renderer's, a
-  // hand-written one) lack it, so it is added, and parse-error line numbers are moved back.
-  int added_lines = 0;
-  if (content.compare(content.find_first_not_of(" \t\r\n"), 5, "%YAML") != 0) {
-    content = "%YAML:1.0\n" + content;
-    added_lines = 1;
-  }
-  if (const auto bad = find_dedent_below_root(content, added_lines)) return *bad;
-  try {
-    storage.open(content, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception& e) {
-    std::smatch match;
-    const std::string where = e.func;
-    static const std::regex kLine(R"(\((\d+)\): (.*))");
-    if (std::regex_search(where, match, kLine))
-      return "not valid YAML: line " + std::to_string(std::stoi(match[1].str()) - added_lines) + ": " +
-             match[2].str();
-    return "not valid YAML: " + e.err;
-  } catch (const std::exception& e) {
-    // OpenCV's parser throws std::length_error on some malformed files (found by fuzzing).
-    return std::string("not valid YAML (the YAML parser gave up: ") + e.what() + ")";
-  }
-  if (!storage.isOpened()) return std::string("not valid YAML");
-  if (!storage.root().isMap()) return std::string("not a YAML map of keys");
-  return std::nullopt;
 }
 
 std::optional<std::string> distortion_problem(const std::vector<double>& coefficients) {

@@ -1,5 +1,5 @@
 // Shared by the dataset readers (private to porta_dataset): messages, folder listings, image
-// loading, YAML opening and stereo rectification.
+// loading and stereo rectification (YAML files: yaml_reader.hpp).
 #pragma once
 
 #include <Eigen/Core>
@@ -44,10 +44,6 @@ std::vector<double> read_times_file(const fs::path& path);
 cv::Mat read_gray(const fs::path& path, int width = 0, int height = 0);
 /// Copies an 8-bit single-channel Mat into a packed porta::Image.
 Image to_image(const cv::Mat& gray);
-
-/// Opens an OpenCV FileStorage YAML file from memory, prepending "%YAML:1.0" when absent. Returns
-/// an error text (no file name) on failure: not readable, empty, or not YAML (with the line).
-std::optional<std::string> open_yaml(const fs::path& path, cv::FileStorage& storage);
 
 /// Largest magnitude of a time stamp in seconds (~3000 years): more is a unit mistake or garbage.
 inline constexpr double kMaxTimeS = 1e11;

@@ -10,6 +10,7 @@
 #include <map>
 
 #include "dataset_internal.hpp"
+#include "yaml_reader.hpp"
 #include "porta/settings.hpp"
 
 namespace porta::slam::detail {
@@ -64,7 +65,7 @@ CameraFrames read_frames(const fs::path& folder) {
 class SensorReader {
  public:
   explicit SensorReader(const fs::path& path) : path_(path) {
-    if (const auto error = open_yaml(path, storage_))
+    if (const auto error = read_yaml_file(path, root_))
       fail("EuRoC sensor file " + in_quotes(path) + ": " + *error);
   }
 
@@ -72,20 +73,19 @@ class SensorReader {
     fail("EuRoC sensor file " + in_quotes(path_) + ": key '" + key + "' " + problem);
   }
 
-  cv::FileNode required(const std::string& key) const {
-    const cv::FileNode node = storage_[key];
-    if (node.empty() || node.isNone()) bad(key, "is missing");
-    return node;
+  const YamlNode& required(const std::string& key) const {
+    const YamlNode* node = root_.find(key);
+    if (node == nullptr || node->is_null()) bad(key, "is missing");
+    return *node;
   }
 
-  std::vector<double> numbers(const cv::FileNode& node, const std::string& key, std::size_t min_count,
+  std::vector<double> numbers(const YamlNode& node, const std::string& key, std::size_t min_count,
                               std::size_t max_count) const {
-    if (!node.isSeq()) bad(key, "must be a list of numbers");
+    if (node.kind != YamlNode::Kind::list) bad(key, "must be a list of numbers");
     std::vector<double> values;
-    for (const auto& item : node) {
-      if (!item.isInt() && !item.isReal()) bad(key, "must be a list of numbers");
-      values.push_back(item.isInt() ? static_cast<double>(static_cast<int>(item))
-                                    : static_cast<double>(item));
+    for (const auto& item : node.items) {
+      if (!item.is_number()) bad(key, "must be a list of numbers");
+      values.push_back(item.number);
       if (!std::isfinite(values.back())) bad(key, "has a value that is not finite");
     }
     if (values.size() < min_count || values.size() > max_count)
@@ -95,10 +95,10 @@ class SensorReader {
   }
 
   std::optional<std::string> text(const std::string& key) const {
-    const cv::FileNode node = storage_[key];
-    if (node.empty() || node.isNone()) return std::nullopt;
-    if (!node.isString()) bad(key, "must be a text");
-    return static_cast<std::string>(node);
+    const YamlNode* node = root_.find(key);
+    if (node == nullptr || node->is_null()) return std::nullopt;
+    if (node->kind != YamlNode::Kind::text) bad(key, "must be a text");
+    return node->text;
   }
 
   RawCamera camera() const {
@@ -133,9 +133,10 @@ class SensorReader {
   }
 
   SE3 body_to_sensor() const {
-    const cv::FileNode node = required("T_BS");
-    const cv::FileNode data = node.isMap() ? node["data"] : node;
-    const auto values = numbers(data, "T_BS", 16, 16);
+    const YamlNode& node = required("T_BS");
+    const YamlNode* data = node.kind == YamlNode::Kind::map ? node.find("data") : &node;
+    if (data == nullptr) bad("T_BS", "has no 'data' list");
+    const auto values = numbers(*data, "T_BS", 16, 16);
     Eigen::Matrix4d m;
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) m(r, c) = values[static_cast<std::size_t>(r * 4 + c)];
@@ -149,7 +150,7 @@ class SensorReader {
 
  private:
   fs::path path_;
-  cv::FileStorage storage_;
+  YamlNode root_;
 };
 
 class EurocDataset final : public StereoDataset {

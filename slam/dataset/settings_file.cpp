@@ -1,9 +1,9 @@
 #include "porta/slam/settings_file.hpp"
 
 #include <cmath>
-#include <opencv2/core.hpp>
 
 #include "dataset_internal.hpp"
+#include "yaml_reader.hpp"
 
 namespace porta::slam {
 
@@ -16,34 +16,38 @@ constexpr int kMaxMatrixSide = 16;
 
 class Reader {
  public:
-  Reader(const cv::FileStorage& storage, const std::string& path) : storage_(storage), path_(path) {}
+  Reader(const detail::YamlNode& root, const std::string& path) : root_(root), path_(path) {}
 
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const {
     throw SettingsFileError("settings file " + in_quotes(path_) + ": key '" + key + "' " + problem);
   }
 
+  /// The key's node, or nullptr when it is absent or empty.
+  const detail::YamlNode* node(const std::string& key) const {
+    const detail::YamlNode* found = root_.find(key);
+    return found == nullptr || found->is_null() ? nullptr : found;
+  }
+
   std::optional<double> number(const std::string& key) const {
-    const cv::FileNode node = storage_[key];
-    if (node.empty() || node.isNone()) return std::nullopt;
-    if (!node.isInt() && !node.isReal()) fail(key, "must be a number, found " + kind(node));
-    const double value =
-        node.isInt() ? static_cast<double>(static_cast<int>(node)) : static_cast<double>(node);
-    if (!std::isfinite(value)) fail(key, "must be a finite number");
-    return value;
+    const detail::YamlNode* n = node(key);
+    if (n == nullptr) return std::nullopt;
+    if (!n->is_number()) fail(key, "must be a number, found " + n->describe());
+    if (!std::isfinite(n->number)) fail(key, "must be a finite number");
+    return n->number;
   }
 
   std::optional<int> integer(const std::string& key) const {
-    const cv::FileNode node = storage_[key];
-    if (node.empty() || node.isNone()) return std::nullopt;
-    if (node.isInt()) return static_cast<int>(node);
-    if (node.isReal()) {
-      const double value = static_cast<double>(node);
+    const detail::YamlNode* n = node(key);
+    if (n == nullptr) return std::nullopt;
+    if (n->kind == detail::YamlNode::Kind::integer) return static_cast<int>(n->number);
+    if (n->kind == detail::YamlNode::Kind::real) {
+      const double value = n->number;
       // ORB-SLAM2's own files write e.g. "Camera.width: 752.0"; a fraction is an error.
       if (std::isfinite(value) && value == std::floor(value) && std::abs(value) < 1e9)
         return static_cast<int>(value);
       fail(key, "must be an integer, found " + detail::format_number(value, 10));
     }
-    fail(key, "must be an integer, found " + kind(node));
+    fail(key, "must be an integer, found " + n->describe());
   }
 
   std::optional<bool> flag(const std::string& key) const {
@@ -53,50 +57,54 @@ class Reader {
     return *value == 1;
   }
 
-  /// A !!opencv-matrix (or a plain sequence of numbers for D) of double values.
-  std::optional<cv::Mat> matrix(const std::string& key) const {
-    const cv::FileNode node = storage_[key];
-    if (node.empty() || node.isNone()) return std::nullopt;
-    cv::Mat m;
-    if (node.isSeq()) {
-      std::vector<double> values;
-      for (const auto& item : node) {
-        if (!item.isInt() && !item.isReal())
-          fail(key, "must be a list of numbers, found an element that is " + kind(item));
-        values.push_back(item.isInt() ? static_cast<double>(static_cast<int>(item))
-                                      : static_cast<double>(item));
-      }
-      // An empty list is an error here (found by fuzzing: cv::Mat::reshape threw on it).
-      if (values.empty()) fail(key, "is an empty list; expected numbers");
-      cv::Mat row(1, static_cast<int>(values.size()), CV_64F);
-      for (std::size_t i = 0; i < values.size(); ++i) row.at<double>(0, static_cast<int>(i)) = values[i];
-      return row;
+  /// Row-major values of an !!opencv-matrix (or of a plain list of numbers, for D).
+  struct Matrix {
+    int rows = 0, cols = 0;
+    std::vector<double> values;
+  };
+
+  std::vector<double> numbers_of(const std::string& key, const detail::YamlNode& list, const char* what) const {
+    std::vector<double> values;
+    for (const auto& item : list.items) {
+      if (!item.is_number()) fail(key, std::string(what) + " an element that is " + item.describe() + ", not a number");
+      values.push_back(item.number);
     }
-    if (!node.isMap()) fail(key, "must be an !!opencv-matrix, found " + kind(node));
-    // Read here rather than by OpenCV's `node >> m`, which allocates rows x cols from the header
-    // before it looks at the data (a fuzzed "cols: 2000000000" asked for gigabytes).
+    return values;
+  }
+
+  std::optional<Matrix> matrix(const std::string& key) const {
+    const detail::YamlNode* n = node(key);
+    if (n == nullptr) return std::nullopt;
+    if (n->kind == detail::YamlNode::Kind::list) {
+      Matrix m;
+      m.values = numbers_of(key, *n, "must be a list of numbers, found");
+      if (m.values.empty()) fail(key, "is an empty list; expected numbers");
+      m.rows = 1;
+      m.cols = static_cast<int>(m.values.size());
+      return m;
+    }
+    if (n->kind != detail::YamlNode::Kind::map) fail(key, "must be an !!opencv-matrix, found " + n->describe());
     const auto size = [&](const char* field) {
-      const cv::FileNode n = node[field];
-      if (!n.isInt()) fail(key, std::string("is not a readable !!opencv-matrix: '") + field + "' must be an integer");
-      const int v = static_cast<int>(n);
+      const detail::YamlNode* f = n->find(field);
+      if (f == nullptr || f->kind != detail::YamlNode::Kind::integer)
+        fail(key, std::string("is not a readable !!opencv-matrix: '") + field + "' must be an integer");
+      const int v = static_cast<int>(f->number);
       if (v < 1 || v > kMaxMatrixSide)
         fail(key, std::string("is not a readable !!opencv-matrix: '") + field + "' is " + std::to_string(v) +
                       ", outside [1, " + std::to_string(kMaxMatrixSide) + "]");
       return v;
     };
-    const int rows = size("rows"), cols = size("cols");
-    const cv::FileNode data = node["data"];
-    if (!data.isSeq()) fail(key, "is not a readable !!opencv-matrix: 'data' must be a list of numbers");
-    if (data.size() != static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols))
-      fail(key, "is not a readable !!opencv-matrix: " + std::to_string(rows) + "x" + std::to_string(cols) +
-                    " needs " + std::to_string(rows * cols) + " numbers, 'data' has " + std::to_string(data.size()));
-    m.create(rows, cols, CV_64F);
-    int i = 0;
-    for (const auto& item : data) {
-      if (!item.isInt() && !item.isReal()) fail(key, "has a 'data' element that is " + kind(item) + ", not a number");
-      m.at<double>(i / cols, i % cols) = item.isInt() ? static_cast<double>(static_cast<int>(item)) : static_cast<double>(item);
-      ++i;
-    }
+    Matrix m;
+    m.rows = size("rows");
+    m.cols = size("cols");
+    const detail::YamlNode* data = n->find("data");
+    if (data == nullptr || data->kind != detail::YamlNode::Kind::list)
+      fail(key, "is not a readable !!opencv-matrix: 'data' must be a list of numbers");
+    if (data->items.size() != static_cast<std::size_t>(m.rows) * static_cast<std::size_t>(m.cols))
+      fail(key, "is not a readable !!opencv-matrix: " + std::to_string(m.rows) + "x" + std::to_string(m.cols) +
+                    " needs " + std::to_string(m.rows * m.cols) + " numbers, 'data' has " +
+                    std::to_string(data->items.size()));
+    m.values = numbers_of(key, *data, "has a 'data' element that is");
     return m;
   }
 
@@ -109,7 +117,7 @@ class Reader {
                     std::to_string(m->rows) + "x" + std::to_string(m->cols));
     Eigen::Matrix<double, Rows, Cols> out;
     for (int r = 0; r < Rows; ++r)
-      for (int c = 0; c < Cols; ++c) out(r, c) = m->at<double>(r, c);
+      for (int c = 0; c < Cols; ++c) out(r, c) = m->values[static_cast<std::size_t>(r * Cols + c)];
     if (!out.allFinite()) fail(key, "has a value that is not a finite number");
     return out;
   }
@@ -121,11 +129,8 @@ class Reader {
     if ((m->rows != 1 && m->cols != 1) || (n != 4 && n != 5))
       fail(key, "must be a 1x4 or 1x5 matrix (k1 k2 p1 p2 [k3]), found " + std::to_string(m->rows) + "x" +
                     std::to_string(m->cols));
-    std::vector<double> values;
-    const cv::Mat flat = m->reshape(1, 1);
-    for (int i = 0; i < n; ++i) values.push_back(flat.at<double>(0, i));
-    if (const auto problem = detail::distortion_problem(values)) fail(key, "has a " + *problem);
-    return values;
+    if (const auto problem = detail::distortion_problem(m->values)) fail(key, "has a " + *problem);
+    return m->values;
   }
 
   RectificationSide side(const std::string& prefix) const {
@@ -140,15 +145,7 @@ class Reader {
   }
 
  private:
-  static std::string kind(const cv::FileNode& node) {
-    if (node.isString()) return "the text '" + static_cast<std::string>(node) + "'";
-    if (node.isSeq()) return "a list";
-    if (node.isMap()) return "a map";
-    if (node.isInt() || node.isReal()) return "a number";
-    return "a value of another type";
-  }
-
-  const cv::FileStorage& storage_;
+  const detail::YamlNode& root_;
   const std::string& path_;
 };
 
@@ -159,27 +156,11 @@ class Reader {
 
 }  // namespace
 
-namespace {
-SettingsFile read_settings_file_unguarded(const std::string& path);
-}  // namespace
-
 SettingsFile read_settings_file(const std::string& path) {
-  // OpenCV's FileNode accessors throw cv::Exception on some malformed trees (found by fuzzing):
-  // the message names the file instead.
-  try {
-    return read_settings_file_unguarded(path);
-  } catch (const cv::Exception& e) {
-    throw SettingsFileError("settings file " + in_quotes(path) + ": not a readable settings file (OpenCV: " + e.err + ")");
-  }
-}
-
-namespace {
-
-SettingsFile read_settings_file_unguarded(const std::string& path) {
-  cv::FileStorage storage;
-  if (const auto error = detail::open_yaml(path, storage))
+  detail::YamlNode root;
+  if (const auto error = detail::read_yaml_file(path, root))
     throw SettingsFileError("settings file " + in_quotes(path) + ": " + *error);
-  const Reader read(storage, path);
+  const Reader read(root, path);
   SettingsFile s;
   s.path = path;
   s.fx = read.number("Camera.fx");
@@ -221,8 +202,6 @@ SettingsFile read_settings_file_unguarded(const std::string& path) {
                             detail::format_number(*s.fps));
   return s;
 }
-
-}  // namespace
 
 void SettingsFile::check_rectification_complete() const {
   if (!left.any() && !right.any()) return;

@@ -68,7 +68,7 @@ void write_euroc_sensor(const SequencePlan& plan, const fs::path& path, int came
   const Eigen::Matrix4d m = T.matrix();
   std::ostringstream out = open_for_writing(path);
   out << "%YAML:1.0\n# General sensor definitions.\nsensor_type: camera\ncomment: PortaSLAM rendered cam" << camera
-      << " (rectified pinhole: no distortion; cam1 is cam0 moved " << c.baseline_m << " m along its x axis)\n\n"
+      << " (rectified pinhole, no distortion; cam1 is cam0 moved " << c.baseline_m << " m along its x axis)\n\n"
       << "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n  cols: 4\n  rows: 4\n  data: [";
   for (int r = 0; r < 4; ++r) {
     for (int col = 0; col < 4; ++col) {

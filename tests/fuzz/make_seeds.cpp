@@ -100,9 +100,15 @@ int main(int argc, char** argv) {
                                                          "1403715273262142976.png\n1403715273312143104,"
                                                          "1403715273312143104.png\n");
 
-  // A map file from the synthetic mapping scene, with and without the checksum fix-up flag.
+  // A map file from a small synthetic mapping scene (every kind of field, a few KB, so that
+  // libFuzzer's inputs stay small and fast), with and without the checksum fix-up flag.
   {
-    const auto map = slam::mapping_test::make_scene_map();
+    slam::mapping_test::SceneSpec spec;
+    spec.near_points = 16;
+    spec.far_points = 8;
+    spec.keyframes = 3;
+    spec.clutter = 4;
+    const auto map = slam::mapping_test::make_scene_map(spec);
     const fs::path file = scratch / "scene.pmap";
     slam::save_map(file.string(), *map, slam::mapping_test::test_settings());
     std::ifstream in(file, std::ios::binary);

@@ -25,9 +25,10 @@ using Bytes = std::vector<std::uint8_t>;
 /// A map with everything a file holds: local mapping on the synthetic scene (triangulated and
 /// culled points, so point ids have gaps; covisibility; the spanning tree), then a culled keyframe
 /// (a gap in keyframe ids), a keyframe whose features carry the frontend's keypoints, and a loop
-/// edge between it and keyframe 0.
-inline std::unique_ptr<Map> make_scene_map() {
-  const SyntheticScene scene{SceneSpec{}};
+/// edge between it and keyframe 0. A smaller `spec` gives a smaller map with the same kinds of field
+/// (the fuzz seeds use one).
+inline std::unique_ptr<Map> make_scene_map(const SceneSpec& spec = SceneSpec{}) {
+  const SyntheticScene scene{spec};
   auto map = std::make_unique<Map>();
   LocalMapper mapper(test_settings(), *map);
   TrackingStandIn tracking(scene, *map, mapper);

@@ -258,11 +258,12 @@ TEST(SettingsFile, AMatrixHeaderIsCheckedBeforeAnythingIsAllocated) {
   EXPECT_NE(message.find("3x3 needs 9 numbers, 'data' has 3"), std::string::npos) << message;
 }
 
-TEST(SettingsFile, ALineIndentedLessThanTheFirstKeyIsRefusedBeforeOpenCVParsesIt) {
-  // Found by fuzzing: OpenCV 4.6's YAML parser never returns on this 11-byte file.
-  const TempFile hang(" t:d\n3, -\n\n");
-  const std::string message = error_of([&] { read_settings_file(hang.path()); });
-  EXPECT_NE(message.find("not valid YAML: line 2 is indented less than the first key (line 1)"), std::string::npos)
+TEST(SettingsFile, ALineIndentedLessThanTheFirstKeyIsRefusedWithItsLine) {
+  // Found by fuzzing: OpenCV 4.6's YAML parser never returned on such files (our reader,
+  // yaml_reader.cpp, replaced it; tests/slam/yaml_reader_test.cpp has the reproducers).
+  const TempFile dedent(" t: d\n3: -\n\n");
+  const std::string message = error_of([&] { read_settings_file(dedent.path()); });
+  EXPECT_NE(message.find("not valid YAML: line 2: is indented less than the first key (line 1)"), std::string::npos)
       << message;
   // Indented keys that stay indented, comments and directives are still fine.
   const TempFile indented("%YAML:1.0\n# comment\n  Camera.fx: 500.0\n  Camera.fy: 500.0\n");
@@ -276,11 +277,11 @@ TEST(SettingsFile, AnEmptyListIsRefusedWithTheKey) {
   EXPECT_NE(message.find("key 'LEFT.D' is an empty list; expected numbers"), std::string::npos) << message;
 }
 
-TEST(SettingsFile, AnOpenCVExceptionFromAMalformedTreeIsNamed) {
+TEST(SettingsFile, AMalformedTreeIsNamedWithItsLine) {
   // Found by fuzzing: cv::FileStorage::operator[] threw "isMap()" on this file.
-  const TempFile odd(std::string(" o%Y, CALIfpsdt: d\n \n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n--------,\n Camera.fps# 0000no   ls: ------/--- 0.0------,-"));
+  const TempFile odd(std::string(" o%Y, CALIfpsdt: d\n \n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n\n--------,\n Camera.fps# 0000no   ls: ------/--- 0.0------,-"));
   const std::string message = error_of([&] { read_settings_file(odd.path()); });
-  EXPECT_NE(message.find("not a readable settings file (OpenCV: "), std::string::npos) << message;
+  EXPECT_NE(message.find("': not valid YAML: line 33: is indented less than the first key (line 1)"), std::string::npos) << message;
 }
 
 }  // namespace
