@@ -30,69 +30,13 @@ mkdir -p "${1:-gpu-bench-results}" && out_dir="$(cd "${1:-gpu-bench-results}" &&
 build_dir="${PORTA_BENCH_BUILD_DIR:-build-gpu-bench}"
 python="${PORTA_PYTHON:-python3}"
 say() { echo "gpu-bench.sh: $*"; }
-have() { command -v "$1" >/dev/null 2>&1; }
-if ! have nvcc && [ -x /usr/local/cuda/bin/nvcc ]; then export PATH="/usr/local/cuda/bin:$PATH"; fi
+# shellcheck source=ci/gpu-common.sh
+source ci/gpu-common.sh
 
-# ---- 1. The machine ------------------------------------------------------------------------------
-{
-  echo "date: $(date -u '+%Y-%m-%d %H:%M:%S UTC'); host $(hostname), $(uname -srm)"
-  echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo ' (with local changes)')"
-  echo "cpu: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'), $(nproc) hardware threads"
-  have nvidia-smi && nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader | sed 's/^/gpu: /'
-  have nvcc && echo "nvcc: $(nvcc --version | tail -1)"
-} | tee "$out_dir/machine.txt"
-
-# NVIDIA's OpenCL is found by the ICD loader only through an .icd file naming the driver's library;
-# where none does, a private vendors folder in OUT_DIR serves this run (ci/gpu.sh registers it
-# system-wide instead).
-nvidia_cl="$(ldconfig -p 2>/dev/null | awk '$1 == "libnvidia-opencl.so.1" {print $NF; exit}')"
-if [ -n "$nvidia_cl" ] && ! grep -qs libnvidia-opencl "${OCL_ICD_VENDORS:-/etc/OpenCL/vendors}"/*.icd; then
-  mkdir -p "$out_dir/icd-vendors"
-  cp /etc/OpenCL/vendors/*.icd "$out_dir/icd-vendors/" 2>/dev/null || true
-  echo "libnvidia-opencl.so.1" >"$out_dir/icd-vendors/nvidia.icd"
-  export OCL_ICD_VENDORS="$out_dir/icd-vendors"
-  echo "opencl: NVIDIA's ICD registered for this run (OCL_ICD_VENDORS=$OCL_ICD_VENDORS)" | tee -a "$out_dir/machine.txt"
-fi
-
-# ---- 2. Build the program ------------------------------------------------------------------------
-generator=(-G Ninja)
-have ninja || generator=(-G "Unix Makefiles")
-cmake_args=(-S . -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DPORTA_BUILD_APPS=ON
-            -DPORTA_BUILD_TESTS=OFF -DPORTA_WERROR=OFF)
-have nvcc && cmake_args+=(-DPORTA_WITH_CUDA=ON "-DCMAKE_CUDA_COMPILER=$(command -v nvcc)")
-# shellcheck disable=SC2206  # extra arguments are split on spaces on purpose
-extra=(${PORTA_GPU_CMAKE_ARGS:-})
-build_log="$out_dir/build.log"
-: >"$build_log"
-left_out=()  # backends whose build failed
-for attempt in 1 2 3 4; do
-  off=()
-  for b in "${left_out[@]}"; do off+=("-DPORTA_WITH_${b}=OFF"); done
-  say "building portaslam in $build_dir (attempt $attempt${left_out[*]:+, without ${left_out[*]}}); log: $build_log"
-  if cmake "${cmake_args[@]}" "${extra[@]}" "${off[@]}" >>"$build_log" 2>&1 &&
-     cmake --build "$build_dir" --target portaslam -j "${PORTA_JOBS:-$(nproc)}" >>"$build_log" 2>&1; then
-    built=1
-    break
-  fi
-  built=0
-  failing=""
-  for b in CUDA VULKAN OPENCL; do
-    lower="$(echo "$b" | tr '[:upper:]' '[:lower:]')"
-    [[ " ${left_out[*]} " == *" $b "* ]] && continue
-    if grep -qE "(FAILED|rror).*backends/$lower/" "$build_log"; then failing="$b"; break; fi
-  done
-  [ -z "$failing" ] && break
-  left_out+=("$failing")
-done
-grep -E "PortaSLAM: (backend|OpenCV|portaslam)" "$build_log" | tail -8 | sed 's/^-- /  /'
-binary="$build_dir/apps/portaslam"
-if [ "$built" != 1 ] || [ ! -x "$binary" ]; then
-  say "BUILD FAILED (last 30 lines of $build_log):"
-  tail -30 "$build_log"
-  grep -q "portaslam program is not built" "$build_log" && say "portaslam needs libpng (libpng-dev) or OpenCV"
-  exit 1
-fi
-[ ${#left_out[@]} -gt 0 ] && echo "BUILD FAILED for: ${left_out[*]} (left out; see build.log)" | tee -a "$out_dir/machine.txt"
+# ---- 1. The machine, 2. the program (ci/gpu-common.sh) -------------------------------------------
+gpu_machine_info
+gpu_register_opencl
+gpu_build "$build_dir" portaslam || exit 1
 
 # ---- 3. Our matrix -------------------------------------------------------------------------------
 "$binary" backends | tee "$out_dir/backends.txt"

@@ -9,7 +9,8 @@
 #   usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR [SCRIPT]]
 #
 # SCRIPT (default ci/gpu.sh, the equivalence suite) is run as `bash SCRIPT OUT_DIR` in that
-# environment; ci/gpu-bench.sh there gives the throughput matrix and its Python peer.
+# environment; ci/gpu-bench.sh there gives the throughput matrix and its Python peer, and
+# ci/gpu-slam.sh the whole SLAM on every backend.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 deps="$(cd "${1:?usage: ci/gpu-carried.sh DEPS_DIR [OUT_DIR [SCRIPT]]}" && pwd)"
@@ -51,6 +52,13 @@ cmake_args=(-DVulkan_INCLUDE_DIR="$prefix/usr/include"
 if [ -e /usr/lib/x86_64-linux-gnu/libvulkan.so.1 ]; then
   cmake_args+=(-DVulkan_LIBRARY=/usr/lib/x86_64-linux-gnu/libvulkan.so.1)
 fi
+# Eigen and Ceres (with SuiteSparse, glog, gflags, BLAS/LAPACK) from the private prefix: CMake
+# finds their packages there, the linker and the program their libraries (BLAS and LAPACK live in
+# the subfolders Debian's alternatives would link from).
+lib="$prefix/usr/lib/x86_64-linux-gnu"
+export CMAKE_PREFIX_PATH="$prefix/usr${CMAKE_PREFIX_PATH:+:$CMAKE_PREFIX_PATH}"
+export LD_LIBRARY_PATH="$lib:$lib/blas:$lib/lapack${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+[ -d "$prefix/usr/include/eigen3" ] && cmake_args+=(-DEigen3_DIR="$prefix/usr/share/eigen3/cmake")
 export PORTA_GPU_CMAKE_ARGS="${cmake_args[*]} ${PORTA_GPU_CMAKE_ARGS:-}"
 [ -d "$deps/data" ] && export PORTA_DATA_DIR="$deps/data"
 exec bash "$script" "$out"

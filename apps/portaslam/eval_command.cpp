@@ -218,7 +218,11 @@ int run(const EvalOptions& o) {
   const std::string& est_path = o.files[1];
   // Outputs first: a bad --json or --plots path is found before the evaluation, not after it.
   if (!o.json_path.empty()) check_output_file("--json", o.json_path);
-  if (!o.plots_dir.empty()) prepare_output_folder("--plots", o.plots_dir);
+  if (!o.plots_dir.empty()) {
+    if (!slam::evaluation_plots_available())
+      throw CliError("option --plots: plots are drawn with OpenCV, and this build of portaslam has none");
+    prepare_output_folder("--plots", o.plots_dir);
+  }
   const LoadedTrajectory gt = load("ground truth", gt_path, o.gt_format, o.gt_times, "--gt-times");
   const LoadedTrajectory est = load("estimate", est_path, o.est_format, o.est_times, "--est-times");
 

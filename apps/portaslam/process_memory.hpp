@@ -1,8 +1,11 @@
-// The process's resident memory, for the run report's memory samples (docs/RELIABILITY.md, soak).
+// The process's resident memory and CPU time, for the run report (memory samples:
+// docs/RELIABILITY.md, soak; host CPU seconds per frame: docs/BENCHMARKS.md).
 #pragma once
 
-#include <cstdio>
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include <cstdio>
 
 namespace porta::app {
 
@@ -15,6 +18,21 @@ inline double resident_mib() {
   std::fclose(f);
   if (got != 2) return 0.0;
   return static_cast<double>(pages_resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
+/// CPU time (user + system) of every thread of the process so far, in seconds.
+inline double process_cpu_seconds() {
+  rusage usage{};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
+  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+/// The largest resident set size the process has had, in MiB (Linux reports KiB).
+inline double peak_resident_mib() {
+  rusage usage{};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
 }  // namespace porta::app

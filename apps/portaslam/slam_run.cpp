@@ -145,6 +145,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   std::string waiting_reason;
   std::vector<std::size_t> relocalised_frames;
   const auto run_start = std::chrono::steady_clock::now();
+  const double cpu_start_s = process_cpu_seconds();
   // As fast as possible, the next pair is read (and for EuRoC rectified) while the current one is
   // processed. Paced like a camera, it is read after: a camera delivers decoded images, so reading
   // files must not compete with SLAM for the cores while a frame is processed.
@@ -155,10 +156,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   for (std::size_t i = options.first; i < end; ++i) {
     slam::StereoPair pair = next.get();
     if (prefetch && i + 1 < end) next = std::async(std::launch::async, load, i + 1);
+    if (i == options.first) first_time_s = pair.time_s;
+    last_time_s = pair.time_s;
     if (options.rate > 0.0) {
       // Like a camera: the pair is not available before its time stamp (scaled by the rate).
-      if (i == options.first) first_time_s = pair.time_s;
-      last_time_s = pair.time_s;
       const auto due = run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                        std::chrono::duration<double>((pair.time_s - first_time_s) / options.rate));
       std::this_thread::sleep_until(due);
@@ -201,7 +202,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                    summary.relocalisations, resident_mib());
     }
   }
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
+  summary.cpu_s = process_cpu_seconds() - cpu_start_s;
   system.finish();
+  summary.peak_resident_mib = peak_resident_mib();
   if (!options.save_map.empty()) {
     system.save_map(options.save_map);
     std::printf("map       saved to %s\n", options.save_map.c_str());
@@ -261,6 +265,17 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     std::printf("frames that took longer than the frame interval at %.3gx: %zu of %zu\n", options.rate,
                 summary.late_frames, summary.frames);
   }
+  const double frames = static_cast<double>(std::max<std::size_t>(summary.frames, 1));
+  const double cpu_per_frame_s = summary.cpu_s / frames;
+  std::printf("throughput %zu frames in %.2f s: %.1f frames/s; host CPU %.4f s per frame (%.2f cores busy",
+              summary.frames, summary.wall_s, summary.frames / std::max(summary.wall_s, 1e-9), cpu_per_frame_s,
+              summary.cpu_s / std::max(summary.wall_s, 1e-9));
+  if (summary.frames > 1 && last_time_s > first_time_s) {
+    const double recorded_fps = static_cast<double>(summary.frames - 1) / (last_time_s - first_time_s);
+    std::printf("; %.1f %% of one core at the recorded %.3g frames/s", 100.0 * cpu_per_frame_s * recorded_fps,
+                recorded_fps);
+  }
+  std::printf("); peak memory %.0f MiB\n", summary.peak_resident_mib);
 
   const LoopReport loops =
       report_loop_closing(system.loop_closer(), options.loop_closing, options.first, relocalised_frames);
@@ -326,6 +341,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     first = false;
   }
   json << "\n  },\n  \"rate\": " << options.rate << ",\n  \"late_frames\": " << summary.late_frames
+       << ",\n  \"throughput\": {\"wall_s\": " << summary.wall_s << ", \"frames_per_s\": "
+       << summary.frames / std::max(summary.wall_s, 1e-9) << ", \"cpu_s\": " << summary.cpu_s
+       << ", \"cpu_s_per_frame\": " << summary.cpu_s / frames << ", \"peak_resident_mib\": "
+       << summary.peak_resident_mib << "}"
        << ",\n  " << loops.json << ",\n  \"memory\": [";
   for (std::size_t k = 0; k < summary.memory.size(); ++k) {
     const SlamRunSummary::MemorySample& m = summary.memory[k];

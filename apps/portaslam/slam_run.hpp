@@ -45,6 +45,11 @@ struct SlamRunSummary {
   std::size_t late_frames = 0;    ///< with a rate: frames that took longer than their interval
   std::size_t loops_detected = 0, loops_closed = 0, relocalisations = 0, global_ba_runs = 0;
   double map_load_ms = 0.0;
+  /// From the first frame handed over to the last one processed (the frames' loop, not the
+  /// start-up or the final writes): wall time, and the process's CPU time over it (every thread:
+  /// reader, tracking, mapping, loop closing, the cpu backend's workers).
+  double wall_s = 0.0, cpu_s = 0.0;
+  double peak_resident_mib = 0.0;
   /// Every kMemorySampleFrames frames and at the end: resident memory and the map's size.
   struct MemorySample {
     std::size_t frame = 0;

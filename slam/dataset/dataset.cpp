@@ -1,6 +1,8 @@
 #include "porta/slam/dataset.hpp"
 
+#if PORTA_DATASET_HAVE_OPENCV
 #include <opencv2/core.hpp>
+#endif
 
 #include "dataset_internal.hpp"
 
@@ -45,7 +47,8 @@ std::unique_ptr<StereoDataset> open_dataset(DatasetKind kind, const std::string&
                      : kind == DatasetKind::euroc ? "EuRoC dataset folder"
                                                   : "stereo folder";
   detail::require_folder(path, what);
-  // An OpenCV exception from inside a reader (a malformed YAML tree, found by fuzzing) is named.
+  // Every OpenCV step of the readers is wrapped where it is called (image decoding, rectification);
+  // this names the dataset should one ever escape.
   try {
     switch (kind) {
       case DatasetKind::kitti:
@@ -55,9 +58,13 @@ std::unique_ptr<StereoDataset> open_dataset(DatasetKind kind, const std::string&
       case DatasetKind::folder:
         return detail::open_folder(path, options);
     }
+#if PORTA_DATASET_HAVE_OPENCV
   } catch (const cv::Exception& e) {
     detail::fail(std::string(what) + " " + detail::in_quotes(path) + ": a file in it could not be read (OpenCV: " +
                  e.err + ")");
+#endif
+  } catch (const std::bad_alloc&) {
+    detail::fail(std::string(what) + " " + detail::in_quotes(path) + ": out of memory while opening it");
   }
   detail::fail("unknown dataset kind");
 }

@@ -6,9 +6,10 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <opencv2/calib3d.hpp>
+#if PORTA_DATASET_HAVE_OPENCV
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#endif
 #include <sstream>
 
 #include "dataset_internal.hpp"
@@ -119,6 +120,7 @@ std::vector<double> read_times_file(const fs::path& path) {
   return times;
 }
 
+#if PORTA_DATASET_HAVE_OPENCV
 namespace {
 
 // 16-bit and float images keep their full range through a linear map to [0, 255] (as portaslam's
@@ -136,32 +138,8 @@ cv::Mat to_8bit(const cv::Mat& m) {
   return out;
 }
 
-}  // namespace
-
-cv::Mat read_gray(const fs::path& path, int width, int height) {
-  std::error_code ec;
-  const auto status = fs::status(path, ec);
-  if (!fs::exists(status)) fail("image " + in_quotes(path) + " is missing");
-  if (fs::is_directory(status)) fail("image " + in_quotes(path) + " is a folder, not an image file");
-  if (io::has_png_signature(path.string())) {
-    // PNG through libpng (the bytes OpenCV would give, png_file.hpp) with the size checked before
-    // any pixel is allocated, and our messages instead of a library's.
-    try {
-      io::GrayPng png = io::read_png_gray(path.string(), kMaxImageSide);
-      cv::Mat gray(png.gray.height(), png.gray.width(), CV_8UC1);
-      for (int y = 0; y < gray.rows; ++y)
-        std::memcpy(gray.ptr<std::uint8_t>(y), png.gray.row(y), static_cast<std::size_t>(gray.cols));
-      if (width > 0 && height > 0 && (gray.cols != width || gray.rows != height))
-        fail("image " + in_quotes(path) + " is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-             ", expected " + std::to_string(width) + "x" + std::to_string(height) + " like the rest of the dataset");
-      return gray;
-    } catch (const io::PngError& e) {
-      if (e.kind() == io::PngError::Kind::too_large)
-        fail("image " + in_quotes(path) + " is " + std::to_string(e.width()) + "x" + std::to_string(e.height()) +
-             ": larger than the limit of " + std::to_string(kMaxImageSide) + " px per side");
-      fail("cannot decode image " + in_quotes(path) + ": " + e.what());
-    }
-  }
+/// A non-PNG image file through OpenCV's decoders, to 8-bit gray.
+Image read_gray_with_opencv(const fs::path& path) {
   cv::Mat decoded;
   try {
     decoded = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
@@ -182,18 +160,44 @@ cv::Mat read_gray(const fs::path& path, int width, int height) {
       cv::extractChannel(gray, single, 0);  // gray + alpha: keep the gray
     gray = single;
   }
-  if (width > 0 && height > 0 && (gray.cols != width || gray.rows != height))
-    fail("image " + in_quotes(path) + " is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-         ", expected " + std::to_string(width) + "x" + std::to_string(height) +
-         " like the rest of the dataset");
-  return gray;
-}
-
-Image to_image(const cv::Mat& gray) {
   Image image(gray.cols, gray.rows);
   for (int y = 0; y < gray.rows; ++y)
     std::memcpy(image.row(y), gray.ptr<std::uint8_t>(y), static_cast<std::size_t>(gray.cols));
   return image;
+}
+
+}  // namespace
+#endif
+
+Image read_gray(const fs::path& path, int width, int height) {
+  std::error_code ec;
+  const auto status = fs::status(path, ec);
+  if (!fs::exists(status)) fail("image " + in_quotes(path) + " is missing");
+  if (fs::is_directory(status)) fail("image " + in_quotes(path) + " is a folder, not an image file");
+  Image gray;
+  if (io::has_png_signature(path.string())) {
+    // PNG through libpng (the bytes OpenCV would give, png_file.hpp) with the size checked before
+    // any pixel is allocated, and our messages instead of a library's.
+    try {
+      gray = std::move(io::read_png_gray(path.string(), kMaxImageSide).gray);
+    } catch (const io::PngError& e) {
+      if (e.kind() == io::PngError::Kind::too_large)
+        fail("image " + in_quotes(path) + " is " + std::to_string(e.width()) + "x" + std::to_string(e.height()) +
+             ": larger than the limit of " + std::to_string(kMaxImageSide) + " px per side");
+      fail("cannot decode image " + in_quotes(path) + ": " + e.what());
+    }
+  } else {
+#if PORTA_DATASET_HAVE_OPENCV
+    gray = read_gray_with_opencv(path);
+#else
+    fail("cannot read image " + in_quotes(path) + ": not a PNG file, and this build of PortaSLAM reads other "
+         "formats only with OpenCV, which it was built without");
+#endif
+  }
+  if (width > 0 && height > 0 && (gray.width() != width || gray.height() != height))
+    fail("image " + in_quotes(path) + " is " + std::to_string(gray.width()) + "x" + std::to_string(gray.height()) +
+         ", expected " + std::to_string(width) + "x" + std::to_string(height) + " like the rest of the dataset");
+  return gray;
 }
 
 std::optional<std::string> distortion_problem(const std::vector<double>& coefficients) {
@@ -229,160 +233,6 @@ std::string format_number(double value, int digits) {
   char text[64];
   std::snprintf(text, sizeof text, "%.*g", digits, value);
   return text;
-}
-
-// ---- Rectifier -----------------------------------------------------------------------------------
-
-namespace {
-
-cv::Mat to_cv(const Eigen::MatrixXd& m) {
-  cv::Mat out(static_cast<int>(m.rows()), static_cast<int>(m.cols()), CV_64F);
-  for (int r = 0; r < out.rows; ++r)
-    for (int c = 0; c < out.cols; ++c) out.at<double>(r, c) = m(r, c);
-  return out;
-}
-
-cv::Mat distortion_to_cv(const std::vector<double>& D) {
-  cv::Mat out(1, std::max<int>(4, static_cast<int>(D.size())), CV_64F, cv::Scalar(0.0));
-  for (std::size_t i = 0; i < D.size(); ++i) out.at<double>(0, static_cast<int>(i)) = D[i];
-  return out;
-}
-
-bool all_zero(const std::vector<double>& values) {
-  return std::all_of(values.begin(), values.end(), [](double v) { return v == 0.0; });
-}
-
-StereoCamera validated(StereoCamera camera, const std::string& source) {
-  try {
-    camera.validate();
-  } catch (const std::invalid_argument& e) {
-    fail(source + ": " + e.what());
-  }
-  return camera;
-}
-
-/// Runs an OpenCV step of building or applying a rectification; an OpenCV assertion (a degenerate
-/// calibration: zero baseline, a singular K, ...) becomes a DatasetError in our words, so that no
-/// library text is all the user sees.
-template <typename Step>
-void opencv_step(const std::string& what, Step&& step) {
-  try {
-    step();
-  } catch (const cv::Exception& e) {
-    fail(what + " failed: the calibration is degenerate or inconsistent (OpenCV: " + e.err + ")");
-  }
-}
-
-}  // namespace
-
-Rectifier Rectifier::identity(const StereoCamera& camera) {
-  Rectifier r;
-  r.camera_ = camera;
-  r.raw_width_ = camera.width;
-  r.raw_height_ = camera.height;
-  r.how_ = "rectified images (no remap)";
-  return r;
-}
-
-Rectifier Rectifier::from_calibration(const RawCamera& cam0, const RawCamera& cam1, const Eigen::Matrix3d& R,
-                                      const Eigen::Vector3d& t) {
-  Rectifier r;
-  r.raw_width_ = cam0.width;
-  r.raw_height_ = cam0.height;
-
-  // A pair that is rectified already (a rendered sequence): keep its camera bit for bit.
-  const double rotation_error = rotation_angle_rad(R);
-  const bool same_k =
-      (cam0.K - cam1.K).cwiseAbs().maxCoeff() <= 1e-9 * std::max(1.0, cam0.K.cwiseAbs().maxCoeff());
-  const bool pinhole =
-      cam0.K(0, 1) == 0.0 && cam0.K(1, 0) == 0.0 && cam0.K(2, 0) == 0.0 && cam0.K(2, 1) == 0.0;
-  if (all_zero(cam0.D) && all_zero(cam1.D) && same_k && pinhole && cam0.width == cam1.width &&
-      cam0.height == cam1.height && rotation_error < 1e-6 && t.x() < 0.0 &&
-      std::abs(t.y()) <= 1e-6 * std::abs(t.x()) && std::abs(t.z()) <= 1e-6 * std::abs(t.x())) {
-    r.camera_.width = cam0.width;
-    r.camera_.height = cam0.height;
-    r.camera_.fx = cam0.K(0, 0);
-    r.camera_.fy = cam0.K(1, 1);
-    r.camera_.cx = cam0.K(0, 2);
-    r.camera_.cy = cam0.K(1, 2);
-    r.camera_.baseline_m = -t.x();
-    r.camera_ = validated(r.camera_, "stereo calibration");
-    r.how_ = "already rectified (no distortion, parallel cameras): no remap";
-    return r;
-  }
-
-  const cv::Size size(cam0.width, cam0.height);
-  cv::Mat R1, R2, P1, P2, Q;
-  opencv_step("stereo rectification from the two cameras' calibration", [&] {
-    cv::stereoRectify(to_cv(cam0.K), distortion_to_cv(cam0.D), to_cv(cam1.K), distortion_to_cv(cam1.D), size,
-                      to_cv(R), to_cv(t), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0, size);
-    cv::initUndistortRectifyMap(to_cv(cam0.K), distortion_to_cv(cam0.D), R1, P1, size, CV_32FC1, r.left_map_x_,
-                                r.left_map_y_);
-    cv::initUndistortRectifyMap(to_cv(cam1.K), distortion_to_cv(cam1.D), R2, P2, size, CV_32FC1, r.right_map_x_,
-                                r.right_map_y_);
-  });
-  r.camera_.width = cam0.width;
-  r.camera_.height = cam0.height;
-  r.camera_.fx = P1.at<double>(0, 0);
-  r.camera_.fy = P1.at<double>(1, 1);
-  r.camera_.cx = P1.at<double>(0, 2);
-  r.camera_.cy = P1.at<double>(1, 2);
-  r.camera_.baseline_m = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
-  r.camera_ = validated(r.camera_, "stereo rectification (cv::stereoRectify)");
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) r.left_rotation_(i, j) = R1.at<double>(i, j);
-  r.how_ = "rectified with cv::stereoRectify (alpha 0, zero disparity)";
-  return r;
-}
-
-Rectifier Rectifier::from_settings(const SettingsFile& settings, const StereoCamera& camera) {
-  Rectifier r;
-  r.camera_ = camera;
-  r.raw_width_ = *settings.left.width;
-  r.raw_height_ = *settings.left.height;
-  const cv::Size size(camera.width, camera.height);
-  const auto build = [&](const RectificationSide& side, cv::Mat& map_x, cv::Mat& map_y) {
-    const Eigen::Matrix3d new_k = side.P->leftCols<3>();
-    opencv_step("rectification from the settings file's LEFT/RIGHT K, D, R, P", [&] {
-      cv::initUndistortRectifyMap(to_cv(*side.K), distortion_to_cv(*side.D), to_cv(*side.R), to_cv(new_k), size,
-                                  CV_32FC1, map_x, map_y);
-    });
-  };
-  build(settings.left, r.left_map_x_, r.left_map_y_);
-  build(settings.right, r.right_map_x_, r.right_map_y_);
-  r.left_rotation_ =
-      nearest_rotation(*settings.left.R, "LEFT.R of settings file " + in_quotes(settings.path));
-  r.how_ = "rectified with the settings file's LEFT/RIGHT K, D, R, P";
-  return r;
-}
-
-Rectifier Rectifier::undistort_only(const StereoCamera& camera, const std::vector<double>& D) {
-  Rectifier r = identity(camera);
-  const cv::Size size(camera.width, camera.height);
-  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
-  K(0, 0) = camera.fx;
-  K(1, 1) = camera.fy;
-  K(0, 2) = camera.cx;
-  K(1, 2) = camera.cy;
-  opencv_step("undistortion with the settings file's Camera.k1 k2 p1 p2 k3", [&] {
-    cv::initUndistortRectifyMap(to_cv(K), distortion_to_cv(D), cv::Mat(), to_cv(K), size, CV_32FC1,
-                                r.left_map_x_, r.left_map_y_);
-  });
-  r.right_map_x_ = r.left_map_x_;
-  r.right_map_y_ = r.left_map_y_;
-  r.how_ = "undistorted with the settings file's Camera.k1 k2 p1 p2 k3";
-  return r;
-}
-
-Image Rectifier::apply(const cv::Mat& raw, int side) const {
-  if (!remaps()) return to_image(raw);
-  cv::Mat rectified;
-  const cv::Mat& map_x = side == 0 ? left_map_x_ : right_map_x_;
-  const cv::Mat& map_y = side == 0 ? left_map_y_ : right_map_y_;
-  opencv_step("rectifying an image", [&] {
-    cv::remap(raw, rectified, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
-  });
-  return to_image(rectified);
 }
 
 }  // namespace porta::slam::detail

@@ -5,7 +5,6 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <memory>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,11 +38,10 @@ void require_same_names(const std::vector<std::string>& left, const fs::path& le
 std::vector<double> read_times_file(const fs::path& path);
 
 /// Decodes an image file to 8-bit gray as `portaslam` does (16-bit / 255-per-65535, float scaled to
-/// its range, color to gray with cvtColor's weights, gray+alpha keeps the gray). Throws DatasetError
-/// naming the file when it is missing, not decodable, or not `width` x `height` (when > 0).
-cv::Mat read_gray(const fs::path& path, int width = 0, int height = 0);
-/// Copies an 8-bit single-channel Mat into a packed porta::Image.
-Image to_image(const cv::Mat& gray);
+/// its range, color to gray with cvtColor's weights, gray+alpha keeps the gray). PNG through libpng
+/// in every build; other formats through OpenCV where the build has it. Throws DatasetError naming
+/// the file when it is missing, not decodable, or not `width` x `height` (when > 0).
+Image read_gray(const fs::path& path, int width = 0, int height = 0);
 
 /// Largest magnitude of a time stamp in seconds (~3000 years): more is a unit mistake or garbage.
 inline constexpr double kMaxTimeS = 1e11;
@@ -69,7 +67,9 @@ struct RawCamera {
 
 /// Rectification of a stereo pair into one StereoCamera: per side, remap tables (absent when the
 /// side needs no remap) and the rectifying rotation of the left camera (x_rect = R_left * x_raw).
-/// Immutable after construction, so apply() may run on several threads at once.
+/// Immutable after construction, so apply() may run on several threads at once (rectifier.cpp).
+/// Remap tables need OpenCV: without it, the constructors that would need them throw DatasetError
+/// saying so, and a pair that is rectified already passes through.
 class Rectifier {
  public:
   /// Identity: images pass through unchanged.
@@ -88,7 +88,7 @@ class Rectifier {
 
   const StereoCamera& camera() const { return camera_; }
   const Eigen::Matrix3d& left_rotation() const { return left_rotation_; }
-  bool remaps() const { return !left_map_x_.empty(); }
+  bool remaps() const { return tables_ != nullptr; }
   /// Expected raw image sizes (0 = any: checked against camera() then).
   int raw_width() const { return raw_width_; }
   int raw_height() const { return raw_height_; }
@@ -96,12 +96,13 @@ class Rectifier {
   const std::string& how() const { return how_; }
 
   /// Rectifies one raw 8-bit gray image of the left (side 0) or right (side 1) camera.
-  Image apply(const cv::Mat& raw, int side) const;
+  Image apply(Image raw, int side) const;
 
  private:
+  struct RemapTables;  // OpenCV maps (rectifier.cpp)
   StereoCamera camera_;
   Eigen::Matrix3d left_rotation_ = Eigen::Matrix3d::Identity();
-  cv::Mat left_map_x_, left_map_y_, right_map_x_, right_map_y_;
+  std::shared_ptr<const RemapTables> tables_;
   int raw_width_ = 0, raw_height_ = 0;
   std::string how_;
 };

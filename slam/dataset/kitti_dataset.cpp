@@ -101,9 +101,9 @@ class KittiDataset final : public StereoDataset {
     StereoPair pair;
     pair.index = check(index);
     pair.time_s = times_[index];
-    pair.left = to_image(read_gray(left_dir_ / names_[index], camera_.width, camera_.height));
+    pair.left = read_gray(left_dir_ / names_[index], camera_.width, camera_.height);
     if (!left_only_)
-      pair.right = to_image(read_gray(right_dir_ / names_[index], camera_.width, camera_.height));
+      pair.right = read_gray(right_dir_ / names_[index], camera_.width, camera_.height);
     return pair;
   }
 
@@ -119,7 +119,7 @@ class KittiDataset final : public StereoDataset {
     const auto settings = read_settings_option(options);
     const fs::path calib_path = root_ / "calib.txt";
     // The image size is not in calib.txt: the first left image gives it.
-    const cv::Mat first = read_gray(left_dir_ / names_.front());
+    const Image first = read_gray(left_dir_ / names_.front());
     if (is_file(calib_path)) {
       const KittiCalibration calib = read_calibration(calib_path);
       for (int i = 0; i < 2; ++i)
@@ -127,8 +127,8 @@ class KittiDataset final : public StereoDataset {
           fail("KITTI calibration " + in_quotes(calib_path) + " has no P" + std::to_string(i) + " line");
       const Projection& p0 = *calib.P[0];
       const Projection& p1 = *calib.P[1];
-      camera_.width = first.cols;
-      camera_.height = first.rows;
+      camera_.width = first.width();
+      camera_.height = first.height();
       camera_.fx = p0[0];
       camera_.fy = p0[5];
       camera_.cx = p0[2];
@@ -153,11 +153,11 @@ class KittiDataset final : public StereoDataset {
     } catch (const SettingsFileError& e) {
       fail(e.what());
     }
-    if (camera_.width != first.cols || camera_.height != first.rows)
+    if (camera_.width != first.width() || camera_.height != first.height())
       fail("settings file " + in_quotes(settings->path) + " says the images are " +
            std::to_string(camera_.width) + "x" + std::to_string(camera_.height) + " but " +
-           in_quotes(left_dir_ / names_.front()) + " is " + std::to_string(first.cols) + "x" +
-           std::to_string(first.rows));
+           in_quotes(left_dir_ / names_.front()) + " is " + std::to_string(first.width()) + "x" +
+           std::to_string(first.height()));
     notes_.push_back("camera from the settings file (no calib.txt)");
   }
 

@@ -24,9 +24,13 @@ std::string evaluation_json(const EvaluationInputs& inputs, const EvaluationOpti
 void write_evaluation_json(const std::string& path, const EvaluationInputs& inputs,
                            const EvaluationOptions& options, const EvaluationResult& result);
 
+/// Whether this build can draw the plots (they are drawn with OpenCV; a build without it, e.g. on
+/// a GPU machine with no OpenCV C++, evaluates and reports but draws nothing).
+bool evaluation_plots_available();
+
 /// Writes trajectory.png, ate.png and rpe.png (about 1000x800) into `folder` (created if missing) and
 /// returns their paths. `title` heads each plot (e.g. the estimate's file name). Throws
-/// EvaluationError when the folder or a file cannot be written.
+/// EvaluationError when the folder or a file cannot be written, or when plots are not available.
 std::vector<std::string> write_evaluation_plots(const std::string& folder, const EvaluationResult& result,
                                                 const std::string& title);
 

@@ -1,0 +1,153 @@
+#!/usr/bin/env bash
+# The whole SLAM on a GPU machine (docs/BENCHMARKS.md, "SLAM on the GPU machine"): builds the
+# portaslam program with the SLAM back end (Ceres) and every backend this machine supports, renders
+# the first PORTA_SLAM_FRAMES (default 1000) frames of KITTI 00's path at 1242x375 (exact ground
+# truth), and runs `portaslam run` on them:
+#   1. deterministic mode on every backend (the runs side by side: their results do not depend on
+#      timing), each backend's trajectory and keyframe files compared byte for byte with cpu's;
+#   2. as fast as possible (realtime mode) on every backend, one after the other, PORTA_SLAM_REPEATS
+#      (default 3) times each;
+#   3. at camera rate (--rate 1) on each GPU backend over the first PORTA_SLAM_RATE_FRAMES (300).
+# During every timed run nvidia-smi samples the GPU's utilisation and memory every 100 ms. Writes
+# report.md (the tables; bench/slam_report.py) and keeps every run's summary JSON and log.
+#
+#   usage: ci/gpu-slam.sh [OUT_DIR]          (default OUT_DIR: ./gpu-slam-results)
+#   without network (packages carried by ci/fetch-gpu-deps.sh):
+#          ci/gpu-carried.sh DEPS_DIR OUT_DIR ci/gpu-slam.sh
+#
+# Needs what ci/gpu-bench.sh needs plus Ceres (libceres-dev, carried by ci/fetch-gpu-deps.sh) and
+# KITTI 00's ground truth in PORTA_DATA_DIR/gt-trajectories (../shared/data; carried too); no
+# OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
+# Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES, PORTA_SLAM_BACKENDS
+# (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
+# PORTA_JOBS, PORTA_SLAM_BUILD_DIR (default build-gpu-slam), PORTA_SLAM_WORK (default OUT_DIR/work:
+# the rendered sequence and the runs' trajectories).
+# Exit status: 0 when everything built and ran and every backend's deterministic files equal cpu's.
+set -uo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
+
+mkdir -p "${1:-gpu-slam-results}" && out_dir="$(cd "${1:-gpu-slam-results}" && pwd)" || exit 1
+build_dir="${PORTA_SLAM_BUILD_DIR:-build-gpu-slam}"
+work="${PORTA_SLAM_WORK:-$out_dir/work}"
+data="${PORTA_DATA_DIR:-../shared/data}"
+frames="${PORTA_SLAM_FRAMES:-1000}"
+repeats="${PORTA_SLAM_REPEATS:-3}"
+rate_frames="${PORTA_SLAM_RATE_FRAMES:-300}"
+say() { echo "gpu-slam.sh: $*"; }
+# shellcheck source=ci/gpu-common.sh
+source ci/gpu-common.sh
+status=0
+
+# ---- 1. The machine and the program --------------------------------------------------------------
+gpu_machine_info
+gpu_register_opencl
+gpu_build "$build_dir" portaslam || exit 1
+[ ${#left_out[@]} -gt 0 ] && status=1
+if ! "$binary" run --help >/dev/null 2>&1; then
+  say "this portaslam has no 'run' command: the SLAM back end was not built (Ceres missing?); see build.log"
+  grep -E "PortaSLAM: (Ceres|OpenCV)" "$out_dir/build.log"
+  exit 1
+fi
+"$binary" backends | tee "$out_dir/backends.txt"
+backends="${PORTA_SLAM_BACKENDS:-$(awk 'NR > 1 && $2 == "yes" && $3 == "yes" {printf "%s%s", sep, $1; sep = ","}' "$out_dir/backends.txt")}"
+IFS=, read -r -a backend_list <<<"$backends"
+say "backends: ${backend_list[*]}"
+
+# ---- 2. The sequence -----------------------------------------------------------------------------
+poses="$data/gt-trajectories/kitti00_poses.txt"
+times="$data/gt-trajectories/kitti00_times.txt"
+if [ ! -f "$poses" ] || [ ! -f "$times" ]; then
+  say "no KITTI 00 ground truth in $data/gt-trajectories (set PORTA_DATA_DIR, or carry it with ci/fetch-gpu-deps.sh)"
+  exit 1
+fi
+mkdir -p "$work"
+seq="$work/k00"
+if [ ! -f "$seq/poses.txt" ] || [ "$(wc -l <"$seq/poses.txt")" != "$frames" ]; then
+  rm -rf "$seq"
+  say "rendering $frames frames of KITTI 00's path into $seq"
+  start_ns=$(date +%s%N)
+  "$binary" render --trajectory "$poses" --times "$times" --count "$frames" --out "$seq" --quiet \
+    >"$out_dir/render.log" 2>&1 || { tail -20 "$out_dir/render.log"; say "render FAILED"; exit 1; }
+  echo "rendered $frames frames in $(( ($(date +%s%N) - start_ns) / 1000000 )) ms" | tee -a "$out_dir/render.log"
+fi
+md5="$data/peer-results/orbslam2-kitti00-render-1000/rendered_input.md5"
+if [ "$frames" = 1000 ] && [ -f "$md5" ]; then
+  if (cd "$seq" && md5sum --quiet -c "$md5") >"$out_dir/render_md5.txt" 2>&1; then
+    echo "rendered images: the same bytes as the ORB-SLAM2 reference's input ($md5)" | tee -a "$out_dir/render_md5.txt"
+  else
+    echo "rendered images DIFFER from the ORB-SLAM2 reference's input ($md5)" | tee -a "$out_dir/render_md5.txt"
+  fi
+fi
+
+# ---- 3. Runs --------------------------------------------------------------------------------------
+# run_slam NAME ARGS...: one `portaslam run` on the sequence; summary in OUT_DIR/NAME.json, log in
+# OUT_DIR/NAME.log, outputs in WORK/NAME, GPU samples in OUT_DIR/NAME.gpu.csv (timed runs only).
+sampler=""
+start_sampler() {
+  sampler=""
+  have nvidia-smi || return 0
+  nvidia-smi --query-gpu=timestamp,utilization.gpu,memory.used --format=csv,noheader,nounits -lms 100 \
+    >"$out_dir/$1.gpu.csv" 2>/dev/null &
+  sampler=$!
+  sleep 0.3
+}
+stop_sampler() { [ -n "$sampler" ] && kill "$sampler" 2>/dev/null && wait "$sampler" 2>/dev/null; sampler=""; }
+run_slam() {
+  local name="$1"
+  shift
+  "$binary" run --dataset kitti "$seq" --out "$work/$name" --json "$out_dir/$name.json" --quiet "$@" \
+    >"$out_dir/$name.log" 2>&1
+  local rc=$?
+  if [ $rc != 0 ]; then
+    say "$name FAILED (exit $rc):"
+    tail -5 "$out_dir/$name.log"
+    status=1
+  fi
+  return $rc
+}
+
+say "deterministic runs on ${backend_list[*]} (side by side)"
+pids=()
+for b in "${backend_list[@]}"; do
+  threads=()
+  [ "$b" = cpu ] && threads=(--threads 4)
+  run_slam "det-$b" --backend "$b" --mode deterministic "${threads[@]}" &
+  pids+=($!)
+done
+for p in "${pids[@]}"; do wait "$p" || status=1; done
+: >"$out_dir/determinism.txt"
+for b in "${backend_list[@]}"; do
+  [ "$b" = cpu ] && continue
+  for f in trajectory_kitti.txt trajectory_tum.txt keyframes_tum.txt; do
+    if cmp -s "$work/det-cpu/$f" "$work/det-$b/$f"; then
+      echo "$b $f: identical to cpu's" >>"$out_dir/determinism.txt"
+    else
+      echo "$b $f: DIFFERS from cpu's" >>"$out_dir/determinism.txt"
+      status=1
+    fi
+  done
+done
+cat "$out_dir/determinism.txt"
+
+for r in $(seq 1 "$repeats"); do
+  for b in "${backend_list[@]}"; do
+    say "as fast as possible: $b, run $r of $repeats"
+    start_sampler "fast-$b-$r"
+    run_slam "fast-$b-$r" --backend "$b"
+    stop_sampler
+  done
+done
+for b in "${backend_list[@]}"; do
+  [ "$b" = cpu ] && continue
+  say "camera rate (--rate 1): $b, $rate_frames frames"
+  start_sampler "rate1-$b"
+  run_slam "rate1-$b" --backend "$b" --rate 1 --frames "$rate_frames"
+  stop_sampler
+done
+
+# ---- 4. Report -------------------------------------------------------------------------------------
+python3 bench/slam_report.py --results "$out_dir" --work "$work" --backends "$backends" >"$out_dir/report.md" ||
+  { say "report FAILED"; status=1; }
+cat "$out_dir/report.md"
+say "results in $out_dir (report.md, *.json, *.log, *.gpu.csv)"
+exit $status
