@@ -21,9 +21,9 @@ apt-get "${opts[@]}" update -qq
   libvulkan1 libvulkan-dev glslang-tools ocl-icd-libopencl1 ocl-icd-opencl-dev \
   libglvnd0 libgl1 libglx0 libegl1 libgles2 libopengl0 \
   libeigen3-dev libceres-dev libceres3 libgoogle-glog-dev libgoogle-glog0v6 libgflags-dev libgflags2.2 \
-  libunwind8 libsuitesparse-dev libcholmod3 libspqr2 libcxsparse3 libsuitesparseconfig5 libamd2 libcamd2 \
+  libunwind8 libunwind-dev liblzma-dev libsuitesparse-dev libcholmod3 libspqr2 libcxsparse3 libsuitesparseconfig5 libamd2 libcamd2 \
   libccolamd2 libcolamd2 libmetis5 libbtf1 libklu1 libldl2 librbio2 libumfpack5 libsliplu1 libmongoose2 \
-  libblas3 liblapack3 libgfortran5)  # GLVND: NVIDIA's Vulkan ICD needs it; the rest: Ceres (SLAM)
+  libatlas3-base libgfortran5)  # GLVND: NVIDIA's Vulkan ICD needs it; the rest: Ceres (SLAM)
 rm -rf "$lists"
 
 data="${PORTA_DATA_DIR:-../shared/data}"

@@ -52,13 +52,22 @@ cmake_args=(-DVulkan_INCLUDE_DIR="$prefix/usr/include"
 if [ -e /usr/lib/x86_64-linux-gnu/libvulkan.so.1 ]; then
   cmake_args+=(-DVulkan_LIBRARY=/usr/lib/x86_64-linux-gnu/libvulkan.so.1)
 fi
-# Eigen and Ceres (with SuiteSparse, glog, gflags, BLAS/LAPACK) from the private prefix: CMake
-# finds their packages there, the linker and the program their libraries (BLAS and LAPACK live in
-# the subfolders Debian's alternatives would link from).
+# Eigen and Ceres (with SuiteSparse, glog, gflags, ATLAS's BLAS/LAPACK, which Debian's libceres3
+# links) from the private prefix: CMake finds their packages there, the linker and the program
+# their libraries (BLAS and LAPACK in the atlas/ subfolder Debian's alternatives would link from).
 lib="$prefix/usr/lib/x86_64-linux-gnu"
 export CMAKE_PREFIX_PATH="$prefix/usr${CMAKE_PREFIX_PATH:+:$CMAKE_PREFIX_PATH}"
-export LD_LIBRARY_PATH="$lib:$lib/blas:$lib/lapack${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export LD_LIBRARY_PATH="$lib:$lib/atlas${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+# Ceres's exported target names the BLAS/LAPACK development links of the machine it was built on
+# (/usr/lib/x86_64-linux-gnu/lib{lapack,blas,f77blas,atlas}.so): libceres.so.3 records them as
+# needed libraries already, so they are dropped from the link line.
+ceres_targets="$lib/cmake/Ceres/CeresTargets.cmake"
+[ -f "$ceres_targets" ] && sed -i 's|;/usr/lib/x86_64-linux-gnu/lib[a-z0-9_]*\.so||g' "$ceres_targets"
 [ -d "$prefix/usr/include/eigen3" ] && cmake_args+=(-DEigen3_DIR="$prefix/usr/share/eigen3/cmake")
+# glog's package adds the absolute /usr/share/glog/cmake (its FindUnwind.cmake) to the module path
+# (inside Ceres's package, which sets the module path itself): point it into the prefix.
+glog_modules="$lib/cmake/glog/glog-modules.cmake"
+[ -f "$glog_modules" ] && sed -i "s|\"/usr/share/glog/cmake\"|\"$prefix/usr/share/glog/cmake\"|" "$glog_modules"
 export PORTA_GPU_CMAKE_ARGS="${cmake_args[*]} ${PORTA_GPU_CMAKE_ARGS:-}"
 [ -d "$deps/data" ] && export PORTA_DATA_DIR="$deps/data"
 exec bash "$script" "$out"

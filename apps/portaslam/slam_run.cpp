@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <sstream>
 #include <future>
@@ -70,9 +71,9 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   // Paced like a camera, tracking comes first and mapping uses the time between frames. As fast
   // as possible there is no time between frames: mapping then shares the cores equally, or local
   // bundle adjustment would hardly ever run (docs/USER_GUIDE.md, "Scheduling").
-  const bool paced = options.rate > 0.0;
-  settings.mapping_thread_idle_priority = paced;
-  settings.mapping_yields_to_tracking = paced;
+  const bool paced_run = options.rate > 0.0;
+  settings.mapping_thread_idle_priority = paced_run;
+  settings.mapping_yields_to_tracking = paced_run;
   settings.loop_closing = options.loop_closing && !options.localization;
   settings.localization_only = options.localization;
   settings.global_bundle_adjustment = options.global_ba;
@@ -126,7 +127,13 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   std::fflush(stdout);
 
   double summary_map_load_ms = 0.0;
-  slam::System system(settings, *backend, options.mode);
+  // As fast as possible, the frontend of the next pair is submitted before the current pair is
+  // tracked (on a GPU backend the device computes it meanwhile); paced like a camera the next pair
+  // does not exist yet while the current one is tracked. The results are the same either way.
+  const bool paced = options.rate > 0.0;
+  slam::SystemOptions system_options;
+  system_options.frontend_in_flight = paced ? 1 : 2;
+  slam::System system(settings, *backend, options.mode, system_options);
   if (!options.load_map.empty()) {
     const auto load_start = std::chrono::steady_clock::now();
     system.load_map(options.load_map);
@@ -146,26 +153,43 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   std::vector<std::size_t> relocalised_frames;
   const auto run_start = std::chrono::steady_clock::now();
   const double cpu_start_s = process_cpu_seconds();
-  // As fast as possible, the next pair is read (and for EuRoC rectified) while the current one is
-  // processed. Paced like a camera, it is read after: a camera delivers decoded images, so reading
-  // files must not compete with SLAM for the cores while a frame is processed.
-  auto load = [&](std::size_t i) { return dataset->load(i); };
-  const bool prefetch = options.rate <= 0.0;
-  std::future<slam::StereoPair> next = std::async(std::launch::async, load, options.first);
+  // As fast as possible, up to read_ahead pairs are read (and for EuRoC rectified) on threads of
+  // their own while frames are processed (decoding two PNG images takes longer than a GPU frame).
+  // Paced like a camera, a pair is read when it is due: a camera delivers decoded images, so
+  // reading files must not compete with SLAM for the cores while a frame is processed.
+  const std::size_t read_ahead =
+      paced ? 0 : std::clamp<std::size_t>(std::thread::hardware_concurrency() / 2, 1, 4);
+  std::deque<std::future<slam::StereoPair>> reads;
+  std::size_t next_request = options.first;  // the next pair to start reading
+  const auto read_next = [&]() -> slam::StereoPair {
+    if (read_ahead == 0) return dataset->load(next_request++);
+    while (reads.size() < read_ahead + 1 && next_request < end) {
+      const std::size_t i = next_request++;
+      reads.push_back(std::async(std::launch::async, [&dataset, i] { return dataset->load(i); }));
+    }
+    std::future<slam::StereoPair> read = std::move(reads.front());
+    reads.pop_front();
+    return read.get();
+  };
   double first_time_s = 0.0, last_time_s = 0.0;
-  for (std::size_t i = options.first; i < end; ++i) {
-    slam::StereoPair pair = next.get();
-    if (prefetch && i + 1 < end) next = std::async(std::launch::async, load, i + 1);
+  const auto submit_next = [&](std::size_t i) {
+    slam::StereoPair pair = read_next();
     if (i == options.first) first_time_s = pair.time_s;
     last_time_s = pair.time_s;
-    if (options.rate > 0.0) {
+    if (paced) {
       // Like a camera: the pair is not available before its time stamp (scaled by the rate).
       const auto due = run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                        std::chrono::duration<double>((pair.time_s - first_time_s) / options.rate));
       std::this_thread::sleep_until(due);
     }
-    const slam::TrackingResult result = system.process(pair);
-    if (!prefetch && i + 1 < end) next = std::async(std::launch::deferred, load, i + 1);
+    system.submit(pair);
+  };
+  const bool ahead = system.frontend_in_flight() > 1;
+  submit_next(options.first);
+  for (std::size_t i = options.first; i < end; ++i) {
+    if (ahead && i + 1 < end) submit_next(i + 1);  // pair i+1's frontend runs while pair i is tracked
+    const slam::TrackingResult result = system.track_next();
+    if (!ahead && i + 1 < end) submit_next(i + 1);
     ++summary.frames;
     if (result.state == slam::TrackingState::ok) ++summary.tracked;
     if (result.state == slam::TrackingState::lost) {

@@ -7,13 +7,20 @@
 
 namespace porta::slam {
 
-System::System(const SlamSettings& settings, Backend& backend, RunMode mode)
-    : settings_(settings), mode_(mode), backend_(backend) {
+System::System(const SlamSettings& settings, Backend& backend, RunMode mode, SystemOptions system_options)
+    : settings_(settings), mode_(mode), options_(system_options), backend_(backend) {
   settings_.validate();
-  // Stage profiling synchronises between kernels; it costs nothing on the cpu backend and little
-  // at SLAM frame rates elsewhere, and it separates the stereo matching time for the statistics.
+  if (options_.frontend_in_flight < 1 || options_.frontend_in_flight > FrontendOptions::kMaxInFlight) {
+    throw std::invalid_argument("SystemOptions::frontend_in_flight must be in [1, " +
+                                std::to_string(FrontendOptions::kMaxInFlight) + "], got " +
+                                std::to_string(options_.frontend_in_flight));
+  }
+  // Stage profiling synchronises between kernels: it separates the stereo matching time for the
+  // statistics and costs little one frame at a time, but it would stop a pipelined frame's work
+  // from running while the host tracks, so only the unpipelined System profiles.
   FrontendOptions options;
-  options.profile_stages = true;
+  options.in_flight = options_.frontend_in_flight;
+  options.profile_stages = options_.frontend_in_flight == 1;
   frontend_ = std::make_unique<Frontend>(backend_, settings_.frontend, settings_.camera.width,
                                          settings_.camera.height, options);
   mapper_ = std::make_unique<LocalMapper>(settings_, map_);
@@ -42,7 +49,13 @@ void System::finish() {
 }
 
 TrackingResult System::process(const StereoPair& pair) {
-  if (finished_) throw std::logic_error("System::process called after finish()");
+  if (!pending_.empty()) throw std::logic_error("System::process: pairs submitted earlier are pending (use track_next)");
+  submit(pair);
+  return track_next();
+}
+
+void System::submit(const StereoPair& pair) {
+  if (finished_) throw std::logic_error("System::submit called after finish()");
   const StereoCamera& camera = settings_.camera;
   if (pair.left.width() != camera.width || pair.left.height() != camera.height ||
       pair.right.width() != camera.width || pair.right.height() != camera.height) {
@@ -52,6 +65,19 @@ TrackingResult System::process(const StereoPair& pair) {
                                 std::to_string(pair.right.height()) + ") but the camera is " +
                                 std::to_string(camera.width) + "x" + std::to_string(camera.height));
   }
+  if (static_cast<int>(pending_.size()) >= options_.frontend_in_flight)
+    throw std::logic_error("System::submit: " + std::to_string(pending_.size()) + " pairs are pending already");
+  const auto start = std::chrono::steady_clock::now();
+  frontend_->submit_stereo(pair.left.view(), pair.right.view());
+  pending_.push_back({pair.time_s, elapsed_ns(start)});
+}
+
+TrackingResult System::track_next() {
+  if (finished_) throw std::logic_error("System::track_next called after finish()");
+  if (pending_.empty()) throw std::logic_error("System::track_next: no pair was submitted");
+  const Pending pending = pending_.front();
+  pending_.pop_front();
+  const StereoCamera& camera = settings_.camera;
   // Realtime mode: mapping pauses at its next pause point while this frame is tracked.
   struct TrackingScope {
     LocalMapper* mapper;
@@ -66,18 +92,18 @@ TrackingResult System::process(const StereoPair& pair) {
   } scope(mode_ == RunMode::realtime ? mapper_.get() : nullptr);
   const auto start = std::chrono::steady_clock::now();
   FrameTimes times;
-  const StereoFeatures stereo = frontend_->detect_stereo(pair.left.view(), pair.right.view());
-  times.frontend_ns = elapsed_ns(start);
-  times.stereo_ns = frontend_->last_times().stereo_ns;
+  const StereoFeatures stereo = frontend_->collect_stereo();
+  times.frontend_ns = pending.submit_ns + elapsed_ns(start);
+  times.stereo_ns = options_.frontend_in_flight == 1 ? frontend_->last_times().stereo_ns : 0;
   auto features = std::make_shared<const FrameFeatures>(
       FrameFeatures::from_frontend(stereo, frontend_->tables(), camera, settings_.min_disparity_px));
 
   const auto track_start = std::chrono::steady_clock::now();
-  TrackingResult result = tracker_->track(static_cast<std::uint64_t>(records_.size()), pair.time_s, features);
+  TrackingResult result = tracker_->track(static_cast<std::uint64_t>(records_.size()), pending.time_s, features);
   times.tracking_ns = elapsed_ns(track_start);
 
   FrameRecord record;
-  record.time_s = pair.time_s;
+  record.time_s = pending.time_s;
   if (result.state == TrackingState::ok && result.reference_keyframe != nullptr) {
     std::lock_guard<std::mutex> lock(map_.mutex);
     record.tracked = true;
@@ -91,7 +117,7 @@ TrackingResult System::process(const StereoPair& pair) {
     mapper_->process_all();
     loop_closer_->process_all();
   }
-  times.total_ns = elapsed_ns(start);
+  times.total_ns = pending.submit_ns + elapsed_ns(start);
   frame_times_.push_back(times);
   results_.push_back(result);
   return result;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <vector>
 
@@ -21,23 +22,46 @@ namespace porta::slam {
 
 /// Per-frame stage times (nanoseconds).
 struct FrameTimes {
-  std::int64_t frontend_ns = 0;  ///< both images: detection + description (incl. upload/download)
-  std::int64_t stereo_ns = 0;    ///< stereo matching (inside the frontend call; separated when profiled)
+  /// Both images: detection + description (incl. upload/download). Pipelined: the host's share,
+  /// submit() plus the wait for the features in track_next() (the device's work overlaps tracking).
+  std::int64_t frontend_ns = 0;
+  std::int64_t stereo_ns = 0;    ///< stereo matching (inside the frontend; separated only when not pipelined)
   std::int64_t tracking_ns = 0;
-  std::int64_t total_ns = 0;     ///< whole process() call
+  std::int64_t total_ns = 0;     ///< frontend_ns + tracking (+ deterministic mapping): the frame's host time
+};
+
+struct SystemOptions {
+  /// Frames whose frontend may be submitted before the oldest is tracked (FrontendOptions::
+  /// in_flight). 1: process() only, each stage timed separately. 2 or more: submit() / track_next()
+  /// pipelining, with the same results.
+  int frontend_in_flight = 1;
 };
 
 class System {
  public:
   /// Validates the settings (std::invalid_argument / SettingsError naming the field). `backend`
   /// must outlive the System.
-  System(const SlamSettings& settings, Backend& backend, RunMode mode);
+  System(const SlamSettings& settings, Backend& backend, RunMode mode, SystemOptions options = {});
   ~System();  ///< stops the mapping thread
   System(const System&) = delete;
   System& operator=(const System&) = delete;
 
-  /// Runs one rectified stereo pair through the pipeline.
+  /// Runs one rectified stereo pair through the pipeline: submit(pair), then track_next().
+  /// std::logic_error while pairs submitted earlier are pending.
   TrackingResult process(const StereoPair& pair);
+
+  /// Pipelining (SystemOptions::frontend_in_flight > 1): enqueues the frontend of a pair (the
+  /// images are copied before it returns) and returns; on a GPU backend the device computes it
+  /// while the host goes on. std::invalid_argument for a pair of the wrong size; std::logic_error
+  /// when frontend_in_flight pairs are pending already.
+  void submit(const StereoPair& pair);
+  /// Waits for the features of the oldest submitted pair and tracks it (std::logic_error when none
+  /// is pending). Submitting pair t+1 before tracking pair t overlaps the two; the results are
+  /// those of process() on the same pairs in the same order, byte for byte.
+  TrackingResult track_next();
+  /// Pairs submitted and not yet tracked.
+  std::size_t pending() const { return pending_.size(); }
+  int frontend_in_flight() const { return options_.frontend_in_flight; }
   /// Realtime mode: lets local mapping finish its queue and stops its thread. Called by the
   /// destructor; call it before reading the final trajectory.
   void finish();
@@ -71,8 +95,14 @@ class System {
     KeyFrame* reference = nullptr;
     SE3 T_c_ref = SE3::Identity();  ///< camera pose relative to its reference keyframe
   };
+  struct Pending {
+    double time_s = 0.0;
+    std::int64_t submit_ns = 0;
+  };
   SlamSettings settings_;
   RunMode mode_;
+  SystemOptions options_;
+  std::deque<Pending> pending_;
   Backend& backend_;
   std::unique_ptr<Frontend> frontend_;
   Map map_;

@@ -1,0 +1,131 @@
+// The pipelined System (system.hpp: submit / track_next with frames in flight) against the
+// sequential one (process): on a rendered drive, in the deterministic mode, both give the same
+// trajectory and keyframes bit for bit; and the misuses of the pipeline are refused.
+#if PORTA_RENDER_BUILT && PORTA_SLAM_BUILT
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "porta/registry.hpp"
+#include "porta/slam/render/rasterizer.hpp"
+#include "porta/slam/render/sequence.hpp"
+#include "porta/slam/system.hpp"
+
+namespace porta::slam {
+namespace {
+
+struct Drive {
+  StereoCamera camera;
+  std::vector<StereoPair> pairs;
+};
+
+/// The first frames of the built-in street loop at 480x146 (rendered once for every test).
+const Drive& drive() {
+  static const Drive d = [] {
+    render::RenderOptions options;
+    options.builtin = render::BuiltinPath::street_loop;
+    options.width = 480;
+    options.height = 146;
+    options.count = 18;
+    options.texture_size = 256;
+    options.threads = 2;
+    const render::SequencePlan plan = render::plan_sequence(options);
+    Drive out;
+    out.camera = plan.camera;
+    render::Rasterizer rasterizer;
+    for (std::size_t k = 0; k < plan.frames.size(); ++k) {
+      render::StereoFrame frame = render::render_frame(plan, k, rasterizer);
+      out.pairs.push_back({k, plan.frames[k].time_s, std::move(frame.left), std::move(frame.right)});
+    }
+    return out;
+  }();
+  return d;
+}
+
+SlamSettings settings_for(const StereoCamera& camera) {
+  SlamSettings s;
+  s.camera = camera;
+  const int cell = default_cell_size(camera.width, camera.height);
+  s.frontend.cell_width = s.frontend.cell_height = cell;
+  s.frontend.stereo_max_disparity =
+      std::clamp(static_cast<int>(std::ceil(camera.bf() / 0.5)), s.frontend.stereo_min_disparity + 1, camera.width);
+  return s;
+}
+
+bool same(const Trajectory& a, const Trajectory& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a.poses[i].time_s != b.poses[i].time_s) return false;
+    if (!(a.poses[i].pose.matrix().array() == b.poses[i].pose.matrix().array()).all()) return false;
+  }
+  return true;
+}
+
+TEST(SystemPipeline, FramesInFlightGiveTheSequentialTrajectoryBitForBit) {
+  const Drive& d = drive();
+  std::unique_ptr<Backend> backend = BackendRegistry::instance().create("cpu", {});
+  System sequential(settings_for(d.camera), *backend, RunMode::deterministic);
+  for (const StereoPair& pair : d.pairs) sequential.process(pair);
+  sequential.finish();
+  const Trajectory reference = sequential.trajectory();
+  ASSERT_EQ(reference.size(), d.pairs.size()) << "every frame of the drive must be tracked";
+  ASSERT_GE(sequential.keyframe_trajectory().size(), 3u);
+
+  for (const int in_flight : {2, 3}) {
+    SystemOptions options;
+    options.frontend_in_flight = in_flight;
+    System pipelined(settings_for(d.camera), *backend, RunMode::deterministic, options);
+    std::size_t submitted = 0;
+    for (std::size_t tracked = 0; tracked < d.pairs.size(); ++tracked) {
+      while (submitted < d.pairs.size() && pipelined.pending() < static_cast<std::size_t>(in_flight))
+        pipelined.submit(d.pairs[submitted++]);
+      const TrackingResult result = pipelined.track_next();
+      EXPECT_EQ(result.state, sequential.results()[tracked].state) << "frame " << tracked;
+    }
+    pipelined.finish();
+    EXPECT_TRUE(same(pipelined.trajectory(), reference)) << in_flight << " frames in flight";
+    EXPECT_TRUE(same(pipelined.keyframe_trajectory(), sequential.keyframe_trajectory())) << in_flight;
+    ASSERT_EQ(pipelined.frame_times().size(), d.pairs.size());
+    for (const FrameTimes& t : pipelined.frame_times()) {
+      EXPECT_GT(t.frontend_ns, 0);
+      EXPECT_GE(t.total_ns, t.frontend_ns + t.tracking_ns);
+    }
+  }
+}
+
+TEST(SystemPipeline, MisusesAreRefused) {
+  const Drive& d = drive();
+  std::unique_ptr<Backend> backend = BackendRegistry::instance().create("cpu", {});
+  SystemOptions bad;
+  bad.frontend_in_flight = 0;
+  EXPECT_THROW(System(settings_for(d.camera), *backend, RunMode::deterministic, bad), std::invalid_argument);
+  bad.frontend_in_flight = FrontendOptions::kMaxInFlight + 1;
+  EXPECT_THROW(System(settings_for(d.camera), *backend, RunMode::deterministic, bad), std::invalid_argument);
+
+  SystemOptions two;
+  two.frontend_in_flight = 2;
+  System system(settings_for(d.camera), *backend, RunMode::deterministic, two);
+  EXPECT_THROW(system.track_next(), std::logic_error);  // nothing submitted
+  system.submit(d.pairs[0]);
+  EXPECT_THROW(system.process(d.pairs[1]), std::logic_error);  // a pair is pending
+  system.submit(d.pairs[1]);
+  EXPECT_THROW(system.submit(d.pairs[2]), std::logic_error);  // two in flight already
+  StereoPair small{2, 0.2, Image(64, 32), Image(64, 32)};
+  EXPECT_THROW(system.submit(small), std::invalid_argument);
+  EXPECT_EQ(system.pending(), 2u);
+  system.track_next();
+  system.track_next();
+  EXPECT_EQ(system.pending(), 0u);
+  system.finish();
+  EXPECT_THROW(system.submit(d.pairs[2]), std::logic_error);
+}
+
+}  // namespace
+}  // namespace porta::slam
+
+#endif  // PORTA_RENDER_BUILT && PORTA_SLAM_BUILT
