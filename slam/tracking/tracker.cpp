@@ -469,7 +469,9 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   check_features(*features, t.pyramid.levels);
   TrackingResult result;
   Frame frame(frame_id, time_s, std::move(features), t.settings.camera);
+  const auto wait_start = std::chrono::steady_clock::now();
   const std::lock_guard<std::mutex> lock(t.map.mutex);
+  result.map_wait_ns = elapsed_ns(wait_start);
   const auto start = std::chrono::steady_clock::now();
 
   if (state_ == TrackingState::not_initialized) {

@@ -47,6 +47,7 @@ struct TrackingResult {
   int matches_motion = 0;            ///< inliers after the first pose optimisation
   int matches_local_map = 0;         ///< inliers after local-map tracking
   std::string lost_reason;           ///< why tracking was lost, for the user
+  std::int64_t map_wait_ns = 0;      ///< waiting for the map's lock (held by local mapping or loop closing)
   std::int64_t track_motion_ns = 0;  ///< steps 1-2
   std::int64_t track_local_map_ns = 0;
   std::int64_t keyframe_ns = 0;
