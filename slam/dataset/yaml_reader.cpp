@@ -237,9 +237,15 @@ class Parser {
     return at_end(p) || s_[p] == '\n' || s_[p] == '#';
   }
 
-  static void check_depth(int depth, int line) {
-    if (depth > kMaxYamlDepth) fail(line, "nested more than " + std::to_string(kMaxYamlDepth) + " levels deep");
+  /// An empty list or map starting here, `depth` levels deep (bounded).
+  YamlNode start_collection(YamlNode::Kind kind, int depth) const {
+    if (depth > kMaxYamlDepth) fail(line_, "nested more than " + std::to_string(kMaxYamlDepth) + " levels deep");
+    YamlNode node;
+    node.kind = kind;
+    node.line = line_;
+    return node;
   }
+  bool is_document_marker(const Content& c) const { return is_marker(c, "---") || is_marker(c, "..."); }
 
   // -- Block structure --
 
@@ -249,35 +255,29 @@ class Parser {
     const auto c = peek();
     YamlNode null;
     null.line = c ? c->line : line_;
-    if (!c || c->column < min_column || is_marker(*c, "---") || is_marker(*c, "...")) return null;
+    if (!c || c->column < min_column || is_document_marker(*c)) return null;
     advance_to(c->at);
     if (is_list_entry(c->at)) return block_list(c->column, depth + 1);
     return block_map(c->column, depth + 1);
   }
 
   YamlNode block_list(int column, int depth) {
-    YamlNode node;
-    node.kind = YamlNode::Kind::list;
-    node.line = line_;
-    check_depth(depth, line_);
+    YamlNode node = start_collection(YamlNode::Kind::list, depth);
     while (const auto c = peek()) {
       if (c->column < column || !is_list_entry(c->at)) break;
       if (c->column > column) fail(c->line, "is indented more than the list entries above it");
       advance_to(c->at + 1);
       node.items.push_back(entry_value(column, depth, /*in_list=*/true));
     }
-    if (const auto c = peek(); c && c->column > column && !is_marker(*c, "---") && !is_marker(*c, "..."))
+    if (const auto c = peek(); c && c->column > column && !is_document_marker(*c))
       fail(c->line, "is indented more than the list entries above it");
     return node;
   }
 
   YamlNode block_map(int column, int depth) {
-    YamlNode node;
-    node.kind = YamlNode::Kind::map;
-    node.line = line_;
-    check_depth(depth, line_);
+    YamlNode node = start_collection(YamlNode::Kind::map, depth);
     while (const auto c = peek()) {
-      if (c->column < column || is_marker(*c, "---") || is_marker(*c, "...")) break;
+      if (c->column < column || is_document_marker(*c)) break;
       if (c->column > column) fail(c->line, "is indented more than the key above it");
       if (is_list_entry(c->at)) fail(c->line, "a list entry ('- ') where a key was expected");
       advance_to(c->at);
@@ -451,10 +451,7 @@ class Parser {
   YamlNode flow_collection(int depth) {
     const char open = s_[pos_];
     const char close = open == '[' ? ']' : '}';
-    YamlNode node;
-    node.kind = open == '[' ? YamlNode::Kind::list : YamlNode::Kind::map;
-    node.line = line_;
-    check_depth(depth, line_);
+    YamlNode node = start_collection(open == '[' ? YamlNode::Kind::list : YamlNode::Kind::map, depth);
     const auto not_closed = [&] {
       fail(node.line, std::string("the ") + (open == '[' ? "list" : "map") + " opened with '" + open +
                           "' is not closed with '" + close + "'");
