@@ -18,7 +18,8 @@
 # Needs what ci/gpu-bench.sh needs plus Ceres (libceres-dev, carried by ci/fetch-gpu-deps.sh) and
 # KITTI 00's ground truth in PORTA_DATA_DIR/gt-trajectories (../shared/data; carried too); no
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
-# Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES, PORTA_SLAM_BACKENDS
+# Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
+# runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
 # PORTA_JOBS, PORTA_SLAM_BUILD_DIR (default build-gpu-slam), PORTA_SLAM_WORK (default OUT_DIR/work:
 # the rendered sequence and the runs' trajectories).
@@ -106,9 +107,12 @@ run_slam() {
   return $rc
 }
 
-say "deterministic runs on ${backend_list[*]} (side by side)"
+deterministic="${PORTA_SLAM_DETERMINISTIC:-1}"
+[ "$deterministic" = 0 ] && say "no deterministic runs (PORTA_SLAM_DETERMINISTIC=0)"
+[ "$deterministic" = 0 ] || say "deterministic runs on ${backend_list[*]} (side by side)"
 pids=()
 for b in "${backend_list[@]}"; do
+  [ "$deterministic" = 0 ] && break
   threads=()
   [ "$b" = cpu ] && threads=(--threads 4)
   run_slam "det-$b" --backend "$b" --mode deterministic "${threads[@]}" &
@@ -117,7 +121,7 @@ done
 for p in "${pids[@]}"; do wait "$p" || status=1; done
 : >"$out_dir/determinism.txt"
 for b in "${backend_list[@]}"; do
-  [ "$b" = cpu ] && continue
+  [ "$b" = cpu ] || [ "$deterministic" = 0 ] && continue
   for f in trajectory_kitti.txt trajectory_tum.txt keyframes_tum.txt; do
     if cmp -s "$work/det-cpu/$f" "$work/det-$b/$f"; then
       echo "$b $f: identical to cpu's" >>"$out_dir/determinism.txt"
@@ -138,7 +142,7 @@ for r in $(seq 1 "$repeats"); do
   done
 done
 for b in "${backend_list[@]}"; do
-  [ "$b" = cpu ] && continue
+  [ "$b" = cpu ] || [ "$rate_frames" = 0 ] && continue
   say "camera rate (--rate 1): $b, $rate_frames frames"
   start_sampler "rate1-$b"
   run_slam "rate1-$b" --backend "$b" --rate 1 --frames "$rate_frames"

@@ -119,6 +119,7 @@ struct Tracker::Impl {
   int local_map_inliers = 0;
   std::vector<KeyFrame*> local_keyframes;
   std::vector<MapPoint*> local_points;
+  std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
   std::string lost_reason;
 };
 
@@ -271,26 +272,30 @@ void Tracker::Impl::update_local_keyframes(Frame& frame) {
 }
 
 void Tracker::Impl::update_local_points() {
+  // Each point once, in the order first met (a mark per build instead of a hash set: this runs for
+  // every frame over tens of thousands of keyframe features).
   local_points.clear();
-  std::unordered_set<std::uint64_t> included;  // membership only, never iterated
+  const std::uint64_t mark = ++local_points_mark;
   for (const KeyFrame* keyframe : local_keyframes) {
     for (MapPoint* point : keyframe->points) {
-      if (point != nullptr && !point->bad && included.insert(point->id).second) local_points.push_back(point);
+      if (point == nullptr || point->bad || point->tracking_local_mark == mark) continue;
+      point->tracking_local_mark = mark;
+      local_points.push_back(point);
     }
   }
 }
 
 int Tracker::Impl::search_local_points(Frame& frame) {
-  std::unordered_set<std::uint64_t> in_frame;  // membership only, never iterated
+  const std::uint64_t mark = ++frame_points_mark;
   for (MapPoint* point : frame.points) {
     if (point == nullptr) continue;
     ++point->visible;
-    in_frame.insert(point->id);
+    point->tracking_frame_mark = mark;
   }
   const Eigen::Vector3d center = frame.center();
   std::vector<tracking::ProjectedPoint> projected;
   for (MapPoint* point : local_points) {
-    if (in_frame.count(point->id) != 0) continue;
+    if (point->tracking_frame_mark == mark) continue;  // matched already
     tracking::ProjectedPoint p;
     if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
     ++point->visible;

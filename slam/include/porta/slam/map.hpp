@@ -66,6 +66,9 @@ class MapPoint {
   int found = 1;     ///< frames that matched it
   bool bad = false;
   MapPoint* replaced_by = nullptr;
+  /// Tracking's marks, under Map::mutex and not saved: the last local-map build that listed the
+  /// point and the last frame that matched it (membership tests without a hash set per frame).
+  std::uint64_t tracking_local_mark = 0, tracking_frame_mark = 0;
 
   int num_observations() const;  ///< stereo observations count 2, as in ORB-SLAM2
   double found_ratio() const { return static_cast<double>(found) / visible; }
