@@ -109,6 +109,12 @@ def main():
     args = parser.parse_args()
     res = args.results
     backends = [b for b in args.backends.split(",") if b]
+    if not os.path.isdir(res):
+        sys.exit(f"slam_report.py: --results {res!r} is not a folder")
+    if not backends:
+        sys.exit("slam_report.py: --backends names no backend")
+    if not glob.glob(os.path.join(res, "*.json")):
+        sys.exit(f"slam_report.py: no run summaries (*.json) in {res!r}: did ci/gpu-slam.sh's runs fail?")
 
     lines = ["# PortaSLAM: the whole SLAM on every backend (ci/gpu-slam.sh)", "", "```"]
     for name in ("machine.txt", "render.log", "render_md5.txt"):

@@ -35,6 +35,17 @@ frames="${PORTA_SLAM_FRAMES:-1000}"
 repeats="${PORTA_SLAM_REPEATS:-3}"
 rate_frames="${PORTA_SLAM_RATE_FRAMES:-300}"
 say() { echo "gpu-slam.sh: $*"; }
+for setting in "PORTA_SLAM_FRAMES=$frames" "PORTA_SLAM_REPEATS=$repeats" "PORTA_SLAM_RATE_FRAMES=$rate_frames" \
+               "PORTA_SLAM_DETERMINISTIC=${PORTA_SLAM_DETERMINISTIC:-1}"; do
+  if ! [[ "${setting#*=}" =~ ^[0-9]+$ ]] || [ "${#setting}" -gt 40 ]; then
+    say "${setting%%=*} must be a whole number, got '${setting#*=}'"
+    exit 2
+  fi
+done
+if [ "$frames" -lt 1 ] || [ "$repeats" -lt 1 ]; then
+  say "PORTA_SLAM_FRAMES and PORTA_SLAM_REPEATS must be at least 1"
+  exit 2
+fi
 # shellcheck source=ci/gpu-common.sh
 source ci/gpu-common.sh
 status=0

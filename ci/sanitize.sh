@@ -31,7 +31,7 @@ if [ "${PORTA_SANITIZE_ONLY:-all}" != thread ]; then
   echo "sanitize: ASan + UBSan build in $asan_dir"
   cmake -S . -B "$asan_dir" "${common[@]}" -DPORTA_SANITIZE=address,undefined
   # Only what the unit, slam, cli and fuzz tests run (not the equivalence or quality suites).
-  cmake --build "$asan_dir" -j "$jobs" --target portaslam porta_place_bench porta_unit_tests porta_slam_tests \
+  cmake --build "$asan_dir" -j "$jobs" --target portaslam porta_place_bench porta_unit_tests porta_no_opencv_tests porta_slam_tests \
     porta_fuzz_make_seeds porta_fuzz_png porta_fuzz_settings porta_fuzz_trajectory porta_fuzz_kitti \
     porta_fuzz_euroc porta_fuzz_map_file
   ctest --test-dir "$asan_dir" --output-on-failure --no-tests=error -j "$jobs" -L "^(unit|slam|cli|fuzz)$"
