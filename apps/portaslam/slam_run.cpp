@@ -71,9 +71,9 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   // Paced like a camera, tracking comes first and mapping uses the time between frames. As fast
   // as possible there is no time between frames: mapping then shares the cores equally, or local
   // bundle adjustment would hardly ever run (docs/USER_GUIDE.md, "Scheduling").
-  const bool paced_run = options.rate > 0.0;
-  settings.mapping_thread_idle_priority = paced_run;
-  settings.mapping_yields_to_tracking = paced_run;
+  const bool paced = options.rate > 0.0;
+  settings.mapping_thread_idle_priority = paced;
+  settings.mapping_yields_to_tracking = paced;
   settings.loop_closing = options.loop_closing && !options.localization;
   settings.localization_only = options.localization;
   settings.global_bundle_adjustment = options.global_ba;
