@@ -19,7 +19,7 @@ optim::LocalBundleAdjustmentResult solve_global_bundle_adjustment(const SlamSett
   optim::LocalBundleAdjustmentOptions options;
   options.first_iterations = 10;
   options.second_iterations = 0;
-  options.sparse = true;
+  options.solver = optim::BaSolver::ceres_sparse_schur;
   options.num_threads = 1;  // deterministic
   options.stop_flag = stop;
   return optim::local_bundle_adjustment(settings.camera, problem.ba_keyframes, problem.positions,

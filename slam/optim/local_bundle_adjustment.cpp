@@ -1,4 +1,5 @@
-// ORB-SLAM2-style local bundle adjustment on Ceres; see local_bundle_adjustment.hpp.
+// ORB-SLAM2-style local bundle adjustment: the two stages and the outlier test, the steps by our
+// Schur solver (schur_solver.hpp) or by Ceres; see local_bundle_adjustment.hpp.
 #include "porta/slam/optim/local_bundle_adjustment.hpp"
 
 #include <ceres/iteration_callback.h>
@@ -13,6 +14,7 @@
 
 #include "porta/slam/optim/reprojection_costs.hpp"
 #include "porta/slam/optim/se3_manifold.hpp"
+#include "schur_solver.hpp"
 #include "solver_setup.hpp"
 
 namespace porta::slam::optim {
@@ -110,8 +112,32 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     return chi2 <= threshold && transform_to_camera(poses[o.keyframe].data(), xyz[o.point]).z() > 0.0;
   };
 
-  const auto run_stage = [&](const std::vector<bool>& active, int iterations, bool robust,
-                             ceres::Solver::Summary* summary) {
+  // One stage: true when there was something to optimise; `stopped` when the stop flag ended it.
+  struct Stage {
+    double initial_cost = 0.0, final_cost = 0.0;
+    bool stopped = false;
+  };
+  std::vector<bool> pose_fixed(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k) pose_fixed[k] = keyframes[k].fixed;
+  const auto run_schur_stage = [&](const std::vector<bool>& active, int iterations, bool robust, Stage* stage) {
+    detail::SchurStage input;
+    input.model = model;
+    input.observations = observations;
+    input.sqrt_information = sqrt_info;
+    input.active = &active;
+    input.pose_fixed = &pose_fixed;
+    input.robust = robust;
+    input.chi2_mono = options.chi2_mono;
+    input.chi2_stereo = options.chi2_stereo;
+    input.max_iterations = iterations;
+    input.stop_flag = options.stop_flag;
+    input.between_iterations = &options.between_iterations;
+    const detail::SchurSummary summary = detail::schur_levenberg_marquardt(input, poses, xyz);
+    result.iterations += summary.iterations;
+    *stage = {summary.initial_cost, summary.final_cost, summary.stopped};
+    return summary.ran;
+  };
+  const auto run_ceres_stage = [&](const std::vector<bool>& active, int iterations, bool robust, Stage* stage) {
     ceres::Problem problem(detail::borrowing_problem_options());
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     std::vector<bool> pose_added(keyframes.size(), false);
@@ -140,12 +166,19 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     }
     if (residual_blocks == 0) return false;
     ceres::Solver::Options solver_options = detail::quiet_solver_options(iterations, options.num_threads);
-    solver_options.linear_solver_type = options.sparse ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
+    solver_options.linear_solver_type =
+        options.solver == BaSolver::ceres_sparse_schur ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;
     if (options.stop_flag != nullptr || options.between_iterations) solver_options.callbacks.push_back(&stop_callback);
-    ceres::Solve(solver_options, &problem, summary);
-    result.iterations += summary->num_successful_steps + summary->num_unsuccessful_steps;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
+    *stage = {summary.initial_cost, summary.final_cost, summary.termination_type == ceres::USER_SUCCESS};
     return true;
+  };
+  const auto run_stage = [&](const std::vector<bool>& active, int iterations, bool robust, Stage* stage) {
+    return options.solver == BaSolver::schur ? run_schur_stage(active, iterations, robust, stage)
+                                             : run_ceres_stage(active, iterations, robust, stage);
   };
 
   // Stage 1: robust, everything in front of its camera (a point behind it would project mirrored).
@@ -154,29 +187,29 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     const BaObservation& o = observations[i];
     active[i] = transform_to_camera(poses[o.keyframe].data(), xyz[o.point]).z() > 0.0;
   }
-  ceres::Solver::Summary summary;
+  Stage stage;
   bool solved = false;
   if (stop_requested()) {
     result.stopped = true;
   } else {
-    solved = run_stage(active, options.first_iterations, true, &summary);
-    if (solved) result.initial_cost = summary.initial_cost;
+    solved = run_stage(active, options.first_iterations, true, &stage);
+    if (solved) result.initial_cost = stage.initial_cost;
   }
   // Stage 2: without the outliers of stage 1 and without the robust loss.
   if (solved && options.second_iterations > 0) {
-    if (summary.termination_type == ceres::USER_SUCCESS || stop_requested()) {
+    if (stage.stopped || stop_requested()) {
       result.stopped = true;
     } else {
       for (std::size_t i = 0; i < n; ++i) active[i] = passes(i, nullptr);
-      ceres::Solver::Summary second;
+      Stage second;
       if (run_stage(active, options.second_iterations, false, &second)) {
-        summary = second;
-        result.stopped = summary.termination_type == ceres::USER_SUCCESS;
+        stage = second;
+        result.stopped = stage.stopped;
       }
     }
   }
-  if (solved && options.second_iterations <= 0) result.stopped = summary.termination_type == ceres::USER_SUCCESS;
-  if (solved) result.final_cost = summary.final_cost;
+  if (solved && options.second_iterations <= 0) result.stopped = stage.stopped;
+  if (solved) result.final_cost = stage.final_cost;
 
   double sum_sq = 0.0;
   std::size_t coordinates = 0;

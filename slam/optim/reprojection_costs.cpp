@@ -42,21 +42,11 @@ bool evaluate_reprojection(const ProjectionModel& m, const double (&observation)
                            double* jacobian_point) {
   const Mat3 R = rotation_of(pose);
   const Vec3 p = R * X + Vec3(pose[4], pose[5], pose[6]);
-  if (!(std::abs(p.z()) > 1e-12)) return false;
-  const double inv_z = 1.0 / p.z();
-  const double u = m.fx * p.x() * inv_z + m.cx;
-  residuals[0] = s * (observation[0] - u);
-  residuals[1] = s * (observation[1] - (m.fy * p.y() * inv_z + m.cy));
-  if constexpr (kRows == 3) residuals[2] = s * (observation[2] - (u - m.bf * inv_z));
-  if (jacobian_pose == nullptr && jacobian_point == nullptr) return true;
-
-  // d residual / d p = -s * d prediction / d p.
+  if (jacobian_pose == nullptr && jacobian_point == nullptr) {
+    return camera_residual<kRows>(m, observation, s, p, residuals, nullptr);
+  }
   Eigen::Matrix<double, kRows, 3> dr_dp;
-  const double inv_z2 = inv_z * inv_z;
-  dr_dp.row(0) << m.fx * inv_z, 0.0, -m.fx * p.x() * inv_z2;
-  dr_dp.row(1) << 0.0, m.fy * inv_z, -m.fy * p.y() * inv_z2;
-  if constexpr (kRows == 3) dr_dp.row(2) << m.fx * inv_z, 0.0, (m.bf - m.fx * p.x()) * inv_z2;
-  dr_dp *= -s;
+  if (!camera_residual<kRows>(m, observation, s, p, residuals, &dr_dp)) return false;
 
   if (jacobian_pose != nullptr) {
     Eigen::Map<Eigen::Matrix<double, kRows, 7, Eigen::RowMajor>> J(jacobian_pose);
@@ -73,6 +63,8 @@ bool evaluate_reprojection(const ProjectionModel& m, const double (&observation)
 double* jacobian_or_null(double** jacobians, int i) { return jacobians == nullptr ? nullptr : jacobians[i]; }
 
 }  // namespace
+
+Mat3 pose_rotation(const double* pose_params) { return rotation_of(pose_params); }
 
 Vec3 transform_to_camera(const double* pose_params, const Vec3& point_world) {
   return rotation_of(pose_params) * point_world + Vec3(pose_params[4], pose_params[5], pose_params[6]);

@@ -14,6 +14,7 @@
 #include <ceres/sized_cost_function.h>
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "porta/slam/stereo_camera.hpp"
 
@@ -31,6 +32,28 @@ struct ProjectionModel {
 struct StereoMeasurement {
   double u_left = 0.0, v = 0.0, u_right = 0.0;
 };
+
+/// Residual s * (observation - prediction) of a point p already in the camera frame, for 2 rows
+/// (u, v) or 3 (u, v, u_r), and, when dr_dp is given, its derivative d residual / d p. False when p
+/// lies in the z = 0 plane. The cost functions below and the Schur solver of the bundle adjustment
+/// (schur_solver.hpp) share it, so that both minimise the same residuals.
+template <int kRows>
+inline bool camera_residual(const ProjectionModel& m, const double* observation, double s, const Eigen::Vector3d& p,
+                            double* residuals, Eigen::Matrix<double, kRows, 3>* dr_dp) {
+  static_assert(kRows == 2 || kRows == 3);
+  if (!(std::abs(p.z()) > 1e-12)) return false;
+  const double inv_z = 1.0 / p.z();
+  const double u = m.fx * p.x() * inv_z + m.cx;
+  residuals[0] = s * (observation[0] - u);
+  residuals[1] = s * (observation[1] - (m.fy * p.y() * inv_z + m.cy));
+  if constexpr (kRows == 3) residuals[2] = s * (observation[2] - (u - m.bf * inv_z));
+  if (dr_dp == nullptr) return true;
+  const double inv_z2 = inv_z * inv_z;
+  dr_dp->row(0) << -s * m.fx * inv_z, 0.0, s * m.fx * p.x() * inv_z2;
+  dr_dp->row(1) << 0.0, -s * m.fy * inv_z, s * m.fy * p.y() * inv_z2;
+  if constexpr (kRows == 3) dr_dp->row(2) << -s * m.fx * inv_z, 0.0, -s * (m.bf - m.fx * p.x()) * inv_z2;
+  return true;
+}
 
 /// 3 residuals (u_l, v, u_r); parameters: pose T_cw (7), world point (3).
 class StereoReprojectionCost final : public ceres::SizedCostFunction<3, 7, 3> {
@@ -84,6 +107,10 @@ class MonoPoseOnlyCost final : public ceres::SizedCostFunction<2, 7> {
   double sqrt_information_;
   Eigen::Vector3d point_world_;
 };
+
+/// R(q) of 7 pose parameters, the rotation the residuals use (Eigen's polynomial map, no
+/// normalisation of q).
+Eigen::Matrix3d pose_rotation(const double* pose_params);
 
 /// The point in the camera frame, p = R(q) X + t, for 7 pose parameters (no normalisation of q,
 /// as in the residuals).
