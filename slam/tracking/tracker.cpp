@@ -37,6 +37,7 @@ namespace {
 // ORB-SLAM2's constants for stereo tracking.
 constexpr double kMotionWindowPx = 7.0;     // motion-model search window at level 0 (doubled on retry)
 constexpr int kMotionMinMatches = 20;       // matches needed before optimising the motion-model pose
+constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose as the prediction
 constexpr double kKeyframeWindowPx = 15.0;  // fallback: wide window, no bag-of-words vocabulary here
 constexpr int kKeyframeMinMatches = 15;
 constexpr int kMinPoseInliers = 10;
@@ -89,6 +90,7 @@ struct Tracker::Impl {
         matcher(settings.projection_on_backend ? &backend : nullptr, scales_q16) {}
 
   bool initialize(Frame& frame, TrackingResult& result);
+  int match_last_frame_from(Frame& frame, const Frame& last, const SE3& T_cw, double window_px);
   bool track_motion_model(Frame& frame, Frame& last, TrackingResult& result);
   bool track_reference_keyframe(Frame& frame, const Frame& last, TrackingResult& result);
   bool track_local_map(Frame& frame, TrackingResult& result);
@@ -171,21 +173,55 @@ void Tracker::Impl::update_last_frame(Frame& last) const {
   }
 }
 
-bool Tracker::Impl::track_motion_model(Frame& frame, Frame& last, TrackingResult& result) {
-  frame.T_cw = velocity * last.T_cw;
+// Matches with the last frame from the prediction `T_cw`, then the pose optimised on them: the
+// inliers, or -1 when too few matches were found. The window is doubled once if needed.
+int Tracker::Impl::match_last_frame_from(Frame& frame, const Frame& last, const SE3& T_cw, double window_px) {
+  frame.T_cw = T_cw;
   std::fill(frame.points.begin(), frame.points.end(), nullptr);
-  int matches = tracking::search_last_frame(frame, last, kMotionWindowPx, geometry);
+  int matches = tracking::search_last_frame(frame, last, window_px, geometry);
   if (matches < kMotionMinMatches) {
     std::fill(frame.points.begin(), frame.points.end(), nullptr);
-    matches = tracking::search_last_frame(frame, last, 2.0 * kMotionWindowPx, geometry);
+    matches = tracking::search_last_frame(frame, last, 2.0 * window_px, geometry);
   }
   if (matches < kMotionMinMatches) {
     lost_reason = "motion model: " + std::to_string(matches) + " matches with the last frame (need " +
                   std::to_string(kMotionMinMatches) + ")";
-    return false;
+    return -1;
   }
   tracking::optimize_frame_pose(frame, geometry);
-  result.matches_motion = tracking::discard_outliers(frame);
+  return tracking::discard_outliers(frame);
+}
+
+bool Tracker::Impl::track_motion_model(Frame& frame, Frame& last, TrackingResult& result) {
+  result.matches_motion = match_last_frame_from(frame, last, velocity * last.T_cw, kMotionWindowPx);
+  if (result.matches_motion < kConfidentMotionInliers) {
+    // Few inliers: the motion changed at once (a turn that starts or ends, a jolt), and the
+    // constant-velocity prediction, off by degrees, matched the wrong features (on repeated
+    // façades, consistently wrong ones). Two more hypotheses: the last pose as the prediction (no
+    // motion) with the wide window, and no prediction at all, descriptor matching with EPnP
+    // against the reference keyframe (relocalisation's test). The one with most inliers stays.
+    // discard_outliers leaves no outlier flag set: pose and points are all a hypothesis is.
+    SE3 best_T_cw = frame.T_cw;
+    std::vector<MapPoint*> best_points = frame.points;
+    const std::string first_reason = lost_reason;
+    const auto keep_if_better = [&](int inliers) {
+      if (inliers > result.matches_motion) {
+        result.matches_motion = inliers;
+        best_T_cw = frame.T_cw;
+        best_points = frame.points;
+      }
+    };
+    keep_if_better(match_last_frame_from(frame, last, last.T_cw, 2.0 * kMotionWindowPx));
+    if (KeyFrame* reference = good_or_ancestor(reference_keyframe); reference != nullptr) {
+      frame.T_cw = last.T_cw;
+      const tracking::Relocalisation found = tracking::relocalise(frame, {reference}, geometry);
+      if (found.ok) keep_if_better(found.inliers);
+    }
+    frame.T_cw = best_T_cw;
+    frame.points = best_points;
+    lost_reason = first_reason;
+  }
+  if (result.matches_motion < 0) return false;
   if (result.matches_motion < kMinPoseInliers) {
     lost_reason = "motion model: " + std::to_string(result.matches_motion) +
                   " inliers after pose optimisation (need " + std::to_string(kMinPoseInliers) + ")";
