@@ -110,6 +110,66 @@ TEST(Tracking, InitialisesOnFirstFrameAndFollowsThePathWithinCentimetres) {
       keyframes, p.map.num_points(), worst_step_m, worst_step_deg, steps_over_2cm, worst_m, worst_deg);
 }
 
+// A jolt: the camera turns 5 degrees within one frame (frame 25) and goes on straight, so the
+// constant-velocity prediction for frame 25 is 5 degrees off. Where it points, a repeated texture
+// (a façade's windows: twins of some of the points, same descriptors, placed exactly where the
+// wrong prediction expects the originals) gives it consistent wrong matches: enough for the
+// motion model's bar (10 inliers) and the local map's (30), few against a good frame's hundreds.
+// The tracker must not take that pose: with under 50 inliers it also tries the last pose and
+// EPnP against the reference keyframe, and keeps the hypothesis with most inliers.
+TEST(Tracking, AJoltOverARepeatedTextureIsNotTrackedAtTheWrongPose) {
+  constexpr int kJolt = 25;
+  constexpr double kJoltDeg = 5.0;
+  std::vector<SE3> path;
+  SE3 T_wc = SE3::Identity();
+  for (int k = 0; k < 45; ++k) {
+    if (k == kJolt) {
+      T_wc.linear() = T_wc.linear() * Eigen::AngleAxisd(kJoltDeg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY())
+                                          .toRotationMatrix();
+    }
+    path.push_back(T_wc.inverse());
+    T_wc.translation() += T_wc.linear() * Eigen::Vector3d(0.0, 0.0, kStepM);
+  }
+  test::World w(path, 11, 1500, 44);
+  // The prediction for the jolt frame, and the twins: X_twin = T_true^-1 T_pred X.
+  const SE3 T_pred = path[kJolt - 1] * path[kJolt - 2].inverse() * path[kJolt - 1];
+  const SE3 twin_of = path[kJolt].inverse() * T_pred;
+  std::mt19937_64 rng(5);
+  const std::size_t originals = w.points.size();
+  int twins_in_view = 0;
+  for (std::size_t j = 0; j < originals; ++j) {
+    const Eigen::Vector3d pc = path[kJolt] * w.points[j];
+    const double u = w.camera.fx * pc.x() / pc.z() + w.camera.cx, v = w.camera.fy * pc.y() / pc.z() + w.camera.cy;
+    const bool in_view = pc.z() > 1.0 && u >= 0 && v >= 0 && u < w.camera.width && v < w.camera.height;
+    if (!in_view || rng() % 100 >= 5) continue;
+    w.points.push_back(twin_of * w.points[j]);
+    w.descriptors.push_back(w.descriptors[j]);
+    w.level0_distance_m.push_back(w.level0_distance_m[j]);
+    w.angle_bin.push_back(w.angle_bin[j]);
+    w.host_frame.push_back(w.host_frame[j]);
+    ++twins_in_view;
+  }
+  ASSERT_GT(twins_in_view, 35);
+
+  Pipeline p(w, w.settings, /*with_loop_closer=*/true);
+  p.run(w, 45, 3);
+  double worst_m = 0.0, worst_deg = 0.0;
+  for (int k = 0; k < 45; ++k) {
+    const TrackingResult& r = p.results[static_cast<std::size_t>(k)];
+    ASSERT_EQ(r.state, TrackingState::ok) << "frame " << k << ": " << r.lost_reason;
+    worst_m = std::max(worst_m, translation_error_m(r.T_cw, path[static_cast<std::size_t>(k)]));
+    worst_deg = std::max(worst_deg, rotation_error_deg(r.T_cw, path[static_cast<std::size_t>(k)]));
+  }
+  const TrackingResult& jolt = p.results[kJolt];
+  EXPECT_LT(rotation_error_deg(jolt.T_cw, path[kJolt]), 0.2) << "the jolt frame took the aliased pose";
+  EXPECT_LT(translation_error_m(jolt.T_cw, path[kJolt]), 0.05);
+  EXPECT_GT(jolt.matches_local_map, 100);
+  EXPECT_LT(worst_deg, 0.3);
+  EXPECT_LT(worst_m, 0.1);
+  std::printf("jolt: %d twins in view; frame %d: %d motion inliers, %d local-map inliers; worst %.4f m %.4f deg\n",
+              twins_in_view, kJolt, jolt.matches_motion, jolt.matches_local_map, worst_m, worst_deg);
+}
+
 TEST(Tracking, WaitsForEnoughStereoPointsBeforeInitialising) {
   const World w(11);
   SlamSettings settings = w.settings;
