@@ -17,24 +17,13 @@
 
 #include "porta/slam/optim/reprojection_costs.hpp"
 #include "porta/slam/optim/se3_manifold.hpp"
+#include "huber_weight.hpp"
 
 namespace porta::slam::optim {
 namespace {
 
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 using Vector6 = Eigen::Matrix<double, 6, 1>;
-
-/// Weight of a residual block with squared norm `chi2` under a Huber loss of width sqrt(delta2)
-/// (rho'(chi2): 1 inside, sqrt(delta2 / chi2) outside), and its cost 0.5 * rho(chi2).
-struct Robust {
-  double weight = 1.0;
-  double cost = 0.0;
-};
-Robust huber(double chi2, double delta2, bool robust) {
-  if (!robust || chi2 <= delta2) return {1.0, 0.5 * chi2};
-  const double root = std::sqrt(chi2);
-  return {std::sqrt(delta2) / root, 0.5 * (2.0 * std::sqrt(delta2) * root - delta2)};
-}
 
 /// Levenberg-Marquardt over the active observations, from `x`; at most `max_iterations` steps.
 /// Stops when the relative cost decrease falls below 1e-6 or the step below 1e-10 (Ceres'
@@ -55,7 +44,7 @@ void levenberg_marquardt(PoseParams& x, std::span<const PoseObservation> observa
       if (!active[i]) continue;
       double r[3] = {0.0, 0.0, 0.0};
       if (!costs[i]->Evaluate(blocks, r, nullptr)) return false;
-      cost += huber(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], delta2(i), robust).cost;
+      cost += detail::huber_weight(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], delta2(i), robust).cost;
     }
     return true;
   };
@@ -77,7 +66,7 @@ void levenberg_marquardt(PoseParams& x, std::span<const PoseObservation> observa
       Eigen::Matrix<double, 3, 7, Eigen::RowMajor> J_ambient = Eigen::Matrix<double, 3, 7, Eigen::RowMajor>::Zero();
       double* jacobians[] = {J_ambient.data()};
       if (!costs[i]->Evaluate(blocks, r, jacobians)) return;
-      const Robust w = huber(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], delta2(i), robust);
+      const detail::HuberWeight w = detail::huber_weight(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], delta2(i), robust);
       const Eigen::Matrix<double, 3, 6> J = J_ambient * plus_jacobian;
       const Eigen::Vector3d residual(r[0], r[1], r[2]);
       H.noalias() += w.weight * J.topRows(rows).transpose() * J.topRows(rows);

@@ -8,6 +8,7 @@
 // a dense system of 6 x (free keyframes) unknowns, built point by point: every pair of a point's
 // free observations adds one 6x6 block.
 #include "schur_solver.hpp"
+#include "huber_weight.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -32,17 +33,6 @@ constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kFunctionTolerance = 1e-6;
 constexpr double kParameterTolerance = 1e-8;
 constexpr double kGradientTolerance = 1e-10;
-
-/// Huber weight rho'(chi2) and cost 0.5 rho(chi2) (delta2 = the squared width).
-struct Robust {
-  double weight = 1.0;
-  double cost = 0.0;
-};
-Robust huber(double chi2, double delta2, bool robust) {
-  if (!robust || chi2 <= delta2) return {1.0, 0.5 * chi2};
-  const double root = std::sqrt(chi2);
-  return {std::sqrt(delta2) / root, 0.5 * (2.0 * std::sqrt(delta2) * root - delta2)};
-}
 
 Mat3 skew(const Vec3& v) {
   Mat3 m;
@@ -163,7 +153,7 @@ bool Solver::cost_at(const std::vector<PoseParams>& poses, const std::vector<Vec
     const Vec3 p = R_[o.keyframe] * points[o.point] + Vec3(x[4], x[5], x[6]);
     Vec3 r;
     if (!residual_at(stage_, i, p, r, nullptr)) return false;
-    cost += huber(r.squaredNorm(), delta2(i), stage_.robust).cost;
+    cost += huber_weight(r.squaredNorm(), delta2(i), stage_.robust).cost;
   }
   return std::isfinite(cost);
 }
@@ -184,7 +174,7 @@ bool Solver::linearise() {
       Vec3 r;
       Mat3 dr_dp;
       if (!residual_at(stage_, i, p, r, &dr_dp)) return false;
-      const double w = huber(r.squaredNorm(), delta2(i), stage_.robust).weight;
+      const double w = huber_weight(r.squaredNorm(), delta2(i), stage_.robust).weight;
       const Mat3 J_point = dr_dp * R_[k];
       V.noalias() += w * J_point.transpose() * J_point;
       g.noalias() += w * J_point.transpose() * r;
