@@ -201,25 +201,39 @@ bool Tracker::Impl::track_motion_model(Frame& frame, Frame& last, TrackingResult
     // motion) with the wide window, and no prediction at all, descriptor matching with EPnP
     // against the reference keyframe (relocalisation's test). The one with most inliers stays.
     // discard_outliers leaves no outlier flag set: pose and points are all a hypothesis is.
+    // When EPnP wins, the frame was relocalised (against the reference keyframe) and says so, as
+    // after a loss: the user learns that the motion model failed, and the stricter inlier bar of
+    // the frames after a relocalisation applies.
+    const int predicted = result.matches_motion;
     SE3 best_T_cw = frame.T_cw;
     std::vector<MapPoint*> best_points = frame.points;
     const std::string first_reason = lost_reason;
-    const auto keep_if_better = [&](int inliers) {
+    bool by_pnp = false;
+    const auto keep_if_better = [&](int inliers, bool pnp) {
       if (inliers > result.matches_motion) {
         result.matches_motion = inliers;
         best_T_cw = frame.T_cw;
         best_points = frame.points;
+        by_pnp = pnp;
       }
     };
-    keep_if_better(match_last_frame_from(frame, last, last.T_cw, 2.0 * kMotionWindowPx));
-    if (KeyFrame* reference = good_or_ancestor(reference_keyframe); reference != nullptr) {
+    keep_if_better(match_last_frame_from(frame, last, last.T_cw, 2.0 * kMotionWindowPx), false);
+    KeyFrame* reference = good_or_ancestor(reference_keyframe);
+    if (reference != nullptr) {
       frame.T_cw = last.T_cw;
       const tracking::Relocalisation found = tracking::relocalise(frame, {reference}, geometry);
-      if (found.ok) keep_if_better(found.inliers);
+      if (found.ok) keep_if_better(found.inliers, true);
     }
     frame.T_cw = best_T_cw;
     frame.points = best_points;
     lost_reason = first_reason;
+    if (by_pnp) {
+      result.relocalised = true;
+      result.lost_reason = "relocalised at frame " + std::to_string(frame.id) + " against keyframe " +
+                           std::to_string(reference->id) + " (" + std::to_string(result.matches_motion) +
+                           " inliers) after: motion model: the constant-velocity prediction had " +
+                           std::to_string(std::max(predicted, 0)) + " inliers";
+    }
   }
   if (result.matches_motion < 0) return false;
   if (result.matches_motion < kMinPoseInliers) {
@@ -546,7 +560,7 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   if (!was_lost) {
     if (t.has_velocity) {
       ok = t.track_motion_model(frame, last_frame_, result);
-      result.used_motion_model = ok;
+      result.used_motion_model = ok && !result.relocalised;
     }
     if (!ok) ok = t.track_reference_keyframe(frame, last_frame_, result);
   }

@@ -13,6 +13,7 @@
 #include <memory>
 #include <numbers>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "porta/registry.hpp"
@@ -164,6 +165,8 @@ TEST(Tracking, AJoltOverARepeatedTextureIsNotTrackedAtTheWrongPose) {
   EXPECT_LT(rotation_error_deg(jolt.T_cw, path[kJolt]), 0.2) << "the jolt frame took the aliased pose";
   EXPECT_LT(translation_error_m(jolt.T_cw, path[kJolt]), 0.05);
   EXPECT_GT(jolt.matches_local_map, 100);
+  EXPECT_TRUE(jolt.relocalised) << "EPnP against the reference keyframe won, and the frame says so";
+  EXPECT_NE(jolt.lost_reason.find("constant-velocity prediction"), std::string::npos) << jolt.lost_reason;
   EXPECT_LT(worst_deg, 0.3);
   EXPECT_LT(worst_m, 0.1);
   std::printf("jolt: %d twins in view; frame %d: %d motion inliers, %d local-map inliers; worst %.4f m %.4f deg\n",

@@ -43,7 +43,7 @@ struct TrackingResult {
   KeyFrame* reference_keyframe = nullptr;
   bool keyframe_inserted = false;
   bool used_motion_model = false;    ///< false: reference-keyframe fallback (or initialisation)
-  bool relocalised = false;          ///< the pose came from relocalisation (the frame or the one before was lost)
+  bool relocalised = false;          ///< the pose came from relocalisation (the frame or the one before was lost, or EPnP against the reference keyframe beat a weak motion-model prediction)
   int matches_motion = 0;            ///< inliers after the first pose optimisation
   int matches_local_map = 0;         ///< inliers after local-map tracking
   std::string lost_reason;           ///< why tracking was lost, for the user
