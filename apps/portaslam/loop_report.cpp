@@ -52,9 +52,9 @@ LoopReport report_loop_closing(const slam::LoopCloser& closer, bool enabled, std
       }
     }
     for (const slam::GlobalBaRun& run : closer.global_ba_runs()) {
-      std::printf("  global BA after keyframe %llu: %zu keyframes, %zu points, %.0f ms, %s\n",
+      std::printf("  global BA after keyframe %llu: %zu keyframes, %zu points, %d iterations, %.0f ms, %s\n",
                   static_cast<unsigned long long>(run.after_loop_keyframe), run.keyframes, run.points,
-                  run.time_ns / 1e6, run.applied ? "applied" : "discarded (a later loop or the end came first)");
+                  run.iterations, run.time_ns / 1e6, run.applied ? "applied" : "discarded (a later loop or the end came first)");
     }
   }
   std::printf("relocalisations: %zu", relocalised_frames.size());
@@ -79,7 +79,8 @@ LoopReport report_loop_closing(const slam::LoopCloser& closer, bool enabled, std
   const std::vector<slam::GlobalBaRun>& runs = closer.global_ba_runs();
   for (std::size_t k = 0; k < runs.size(); ++k) {
     json << (k == 0 ? "" : ", ") << "{\"keyframes\": " << runs[k].keyframes << ", \"points\": " << runs[k].points
-         << ", \"ms\": " << runs[k].time_ns / 1e6 << ", \"applied\": " << (runs[k].applied ? "true" : "false") << "}";
+         << ", \"iterations\": " << runs[k].iterations << ", \"ms\": " << runs[k].time_ns / 1e6
+         << ", \"applied\": " << (runs[k].applied ? "true" : "false") << "}";
   }
   json << "]},\n  \"relocalisation\": {\"count\": " << relocalised_frames.size() << ", \"frames\": [";
   for (std::size_t k = 0; k < relocalised_frames.size(); ++k) json << (k == 0 ? "" : ", ") << relocalised_frames[k];

@@ -222,6 +222,7 @@ void LoopCloser::run_global_ba(std::uint64_t loop_keyframe, std::uint64_t genera
   if (!problem.observations.empty()) {
     const optim::LocalBundleAdjustmentResult result =
         loop::solve_global_bundle_adjustment(settings_, problem, &global_ba_stop_);
+    run.iterations = result.iterations;
     std::lock_guard map_lock(map_.mutex);
     // Another loop moved the map meanwhile: this result belongs to the map before it.
     if (!result.stopped && !global_ba_stop_ && map_.correction_generation == generation) {

@@ -71,7 +71,7 @@ double correct_loop(Map& map, KeyFrame* query, KeyFrame* candidate, const LoopMa
 /// Global bundle adjustment, in three parts so that the long one runs without the lock.
 /// Caller holds the lock: every good keyframe (keyframe 0 fixed) and point.
 mapping::BaProblem collect_global_bundle_adjustment(const Map& map, const ScalePyramid& pyramid);
-/// No lock needed (works on the copy): 10 iterations with the Huber loss, sparse Schur, stopped by
+/// No lock needed (works on the copy): up to 30 iterations with the Huber loss, sparse Schur, stopped by
 /// `stop`. ORB-SLAM2 removes no outliers here; neither does this.
 optim::LocalBundleAdjustmentResult solve_global_bundle_adjustment(const SlamSettings& settings,
                                                                   const mapping::BaProblem& problem,

@@ -69,6 +69,7 @@ struct LoopTimes {
 struct GlobalBaRun {
   std::uint64_t after_loop_keyframe = 0;
   std::size_t keyframes = 0, points = 0;
+  int iterations = 0;  ///< Levenberg-Marquardt iterations run (at most 30: global_bundle_adjustment.cpp)
   std::int64_t time_ns = 0;
   bool applied = false;  ///< false: stopped by another loop or the end of the run
 };
