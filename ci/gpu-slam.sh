@@ -5,6 +5,8 @@
 # truth), and runs `portaslam run` on them:
 #   1. deterministic mode on every backend (the runs side by side: their results do not depend on
 #      timing), each backend's trajectory and keyframe files compared byte for byte with cpu's;
+#      then the same on the built-in street-loop (612 frames), where a loop is closed, corrected
+#      and globally adjusted (PORTA_SLAM_LOOP=0 skips it);
 #   2. as fast as possible (realtime mode) on every backend, one after the other, PORTA_SLAM_REPEATS
 #      (default 3) times each;
 #   3. at camera rate (--rate 1) on each GPU backend over the first PORTA_SLAM_RATE_FRAMES (300).
@@ -19,7 +21,8 @@
 # KITTI 00's ground truth in PORTA_DATA_DIR/gt-trajectories (../shared/data; carried too); no
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
 # Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
-# runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BACKENDS
+# runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_LOOP
+# (0: no street-loop determinism check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
 # PORTA_JOBS, PORTA_SLAM_BUILD_DIR (default build-gpu-slam), PORTA_SLAM_WORK (default OUT_DIR/work:
 # the rendered sequence and the runs' trajectories).
@@ -36,7 +39,7 @@ repeats="${PORTA_SLAM_REPEATS:-3}"
 rate_frames="${PORTA_SLAM_RATE_FRAMES:-300}"
 say() { echo "gpu-slam.sh: $*"; }
 for setting in "PORTA_SLAM_FRAMES=$frames" "PORTA_SLAM_REPEATS=$repeats" "PORTA_SLAM_RATE_FRAMES=$rate_frames" \
-               "PORTA_SLAM_DETERMINISTIC=${PORTA_SLAM_DETERMINISTIC:-1}"; do
+               "PORTA_SLAM_DETERMINISTIC=${PORTA_SLAM_DETERMINISTIC:-1}" "PORTA_SLAM_LOOP=${PORTA_SLAM_LOOP:-1}"; do
   if ! [[ "${setting#*=}" =~ ^[0-9]+$ ]] || [ "${#setting}" -gt 40 ]; then
     say "${setting%%=*} must be a whole number, got '${setting#*=}'"
     exit 2
@@ -130,19 +133,42 @@ for b in "${backend_list[@]}"; do
   pids+=($!)
 done
 for p in "${pids[@]}"; do wait "$p" || status=1; done
-: >"$out_dir/determinism.txt"
-for b in "${backend_list[@]}"; do
-  [ "$b" = cpu ] || [ "$deterministic" = 0 ] && continue
-  for f in trajectory_kitti.txt trajectory_tum.txt keyframes_tum.txt; do
-    if cmp -s "$work/det-cpu/$f" "$work/det-$b/$f"; then
-      echo "$b $f: identical to cpu's" >>"$out_dir/determinism.txt"
-    else
-      echo "$b $f: DIFFERS from cpu's" >>"$out_dir/determinism.txt"
-      status=1
-    fi
+# compare_with_cpu PREFIX REPORT: every backend's PREFIX-<backend> files against cpu's, byte for byte.
+compare_with_cpu() {
+  : >"$2"
+  for b in "${backend_list[@]}"; do
+    [ "$b" = cpu ] && continue
+    for f in trajectory_kitti.txt trajectory_tum.txt keyframes_tum.txt; do
+      if cmp -s "$work/$1-cpu/$f" "$work/$1-$b/$f"; then
+        echo "$b $f: identical to cpu's" >>"$2"
+      else
+        echo "$b $f: DIFFERS from cpu's" >>"$2"
+        status=1
+      fi
+    done
   done
-done
-cat "$out_dir/determinism.txt"
+  cat "$2"
+}
+[ "$deterministic" = 0 ] || compare_with_cpu det "$out_dir/determinism.txt"
+
+# The same with a loop closed, corrected and globally adjusted: the built-in street loop (612 frames).
+if [ "$deterministic" != 0 ] && [ "${PORTA_SLAM_LOOP:-1}" != 0 ]; then
+  say "deterministic runs with a loop closure (street-loop) on ${backend_list[*]}"
+  "$binary" render --path street-loop --out "$work/street" --quiet >"$out_dir/render-street.log" 2>&1 ||
+    { say "street-loop render FAILED"; status=1; }
+  pids=()
+  for b in "${backend_list[@]}"; do
+    threads=()
+    [ "$b" = cpu ] && threads=(--threads 4)
+    "$binary" run --dataset kitti "$work/street" --out "$work/loop-$b" --json "$out_dir/loop-$b.json" --quiet \
+      --backend "$b" --mode deterministic "${threads[@]}" >"$out_dir/loop-$b.log" 2>&1 &
+    pids+=($!)
+  done
+  for p in "${pids[@]}"; do wait "$p" || status=1; done
+  grep -h -E "^frames|closed,|global BA|^ATE" "$out_dir/loop-cpu.log" | tee "$out_dir/loop-determinism.txt"
+  compare_with_cpu loop "$out_dir/loop-determinism.cmp"
+  cat "$out_dir/loop-determinism.cmp" >>"$out_dir/loop-determinism.txt"
+fi
 
 for r in $(seq 1 "$repeats"); do
   for b in "${backend_list[@]}"; do
@@ -163,6 +189,10 @@ done
 # ---- 4. Report -------------------------------------------------------------------------------------
 python3 bench/slam_report.py --results "$out_dir" --work "$work" --backends "$backends" >"$out_dir/report.md" ||
   { say "report FAILED"; status=1; }
+if [ -f "$out_dir/loop-determinism.txt" ]; then
+  printf '\n### Deterministic mode with a loop closure (street-loop, 612 frames)\n\n```\n%s\n```\n' \
+    "$(cat "$out_dir/loop-determinism.txt")" >>"$out_dir/report.md"
+fi
 cat "$out_dir/report.md"
 say "results in $out_dir (report.md, *.json, *.log, *.gpu.csv)"
 exit $status
