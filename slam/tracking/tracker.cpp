@@ -37,7 +37,7 @@ namespace {
 // ORB-SLAM2's constants for stereo tracking.
 constexpr double kMotionWindowPx = 7.0;     // motion-model search window at level 0 (doubled on retry)
 constexpr int kMotionMinMatches = 20;       // matches needed before optimising the motion-model pose
-constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose as the prediction
+constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose and EPnP (no prediction)
 constexpr double kKeyframeWindowPx = 15.0;  // fallback: wide window, no bag-of-words vocabulary here
 constexpr int kKeyframeMinMatches = 15;
 constexpr int kMinPoseInliers = 10;
