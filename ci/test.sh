@@ -5,6 +5,7 @@
 # executions per target, fixed seed, about a minute after its build). Exits non-zero when a build
 # or any test fails. Build folder: ./build, or $PORTA_BUILD_DIR. Extra arguments go to CMake.
 # PORTA_SANITIZERS=off skips the sanitizer and libFuzzer runs (a quick local check; CI runs them).
+# Between ctest and those, ci/python-package.sh installs the Python package with pip and tests it.
 # Run ci/setup.sh first to install the dependencies.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -16,9 +17,20 @@ jobs="${PORTA_JOBS:-2}"
 # must happen, so a backend that cannot run fails instead of being skipped.
 export PORTA_EQUIVALENCE_REQUIRE="${PORTA_EQUIVALENCE_REQUIRE:-opencl,vulkan}"
 
-cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON "$@"
+# The Python module is built for, and its tests (ctest -L python) run in, the venv of
+# ci/python-env.sh (Debian's python3, numpy and pytest, and plyfile).
+python_env="$(bash ci/python-env.sh "$build_dir/python-env")"
+
+cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON -DPORTA_BUILD_PYTHON=ON \
+      -DPython_EXECUTABLE="$python_env/bin/python" "$@"
 cmake --build "$build_dir" -j "$jobs"
 ctest --test-dir "$build_dir" --output-on-failure --no-tests=error -j "$jobs"
+
+# The Python package as a user installs it (`pip install .` into a fresh venv, then tests/python
+# against it). PORTA_PYTHON_PACKAGE=off skips it (a quick local check; CI runs it).
+if [ "${PORTA_PYTHON_PACKAGE:-on}" != off ]; then
+  bash ci/python-package.sh
+fi
 
 # The fuzz targets run in ctest above and under ASan + UBSan in ci/sanitize.sh (the plain driver:
 # seeds and deterministic mutations), then with libFuzzer's coverage-guided mutations.

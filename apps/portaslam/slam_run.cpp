@@ -53,21 +53,17 @@ Quantiles quantiles(std::vector<std::int64_t> ns) {
 }
 
 slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::StereoDataset& dataset) {
-  slam::SlamSettings settings;
-  settings.camera = dataset.camera();
+  // Culling cells fit to the image size and the whole disparity range, unless given.
+  slam::SlamSettings settings = slam::default_settings(dataset.camera());
+  const int fitted_cell = settings.frontend.cell_width;
   if (!options.dataset.settings_path.empty()) {
     const slam::SettingsFile file = slam::read_settings_file(options.dataset.settings_path);
     file.apply_to(settings.frontend);
     if (file.th_depth) settings.th_depth = *file.th_depth;
   }
   if (options.levels > 0) settings.frontend.levels = options.levels;
-  // Culling cells fit to the image size unless given (slam_settings.hpp, default_cell_size).
-  const int cell = options.cell > 0 ? options.cell : slam::default_cell_size(settings.camera.width, settings.camera.height);
+  const int cell = options.cell > 0 ? options.cell : fitted_cell;
   settings.frontend.cell_width = settings.frontend.cell_height = cell;
-  // Search the whole disparity range the scene can produce: from 0.5 m (or the image width).
-  const int max_disparity = static_cast<int>(std::ceil(settings.camera.bf() / 0.5));
-  settings.frontend.stereo_max_disparity =
-      std::clamp(max_disparity, settings.frontend.stereo_min_disparity + 1, std::min(settings.camera.width, 4096));
   // Paced like a camera, tracking comes first and mapping uses the time between frames. As fast
   // as possible there is no time between frames: mapping then shares the cores equally, or local
   // bundle adjustment would hardly ever run (docs/USER_GUIDE.md, "Scheduling").

@@ -13,6 +13,16 @@ int default_cell_size(int width, int height) {
   return std::clamp(static_cast<int>(std::lround(std::sqrt(area / kKittiCells))), 8, 32);
 }
 
+SlamSettings default_settings(const StereoCamera& camera) {
+  SlamSettings settings;
+  settings.camera = camera;
+  settings.frontend.cell_width = settings.frontend.cell_height = default_cell_size(camera.width, camera.height);
+  const int max_disparity = static_cast<int>(std::ceil(camera.bf() / 0.5));
+  settings.frontend.stereo_max_disparity =
+      std::clamp(max_disparity, settings.frontend.stereo_min_disparity + 1, std::min(camera.width, 4096));
+  return settings;
+}
+
 void SlamSettings::validate() const {
   camera.validate();
   frontend.validate();

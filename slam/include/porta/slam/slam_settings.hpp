@@ -63,4 +63,9 @@ struct SlamSettings {
   void validate() const;
 };
 
+/// The settings `portaslam run` starts from for `camera` (before its options): the defaults
+/// above, culling cells fit to the image size (default_cell_size) and a stereo search over every
+/// disparity a point 0.5 m away or farther can have (capped at the image width and 4096).
+SlamSettings default_settings(const StereoCamera& camera);
+
 }  // namespace porta::slam
