@@ -102,7 +102,8 @@ MapReport write_map_outputs(const slam::MapCloud& cloud, const slam::Trajectory&
 std::string map_output_options_usage() {
   return "  --export-map FILE   write the map as a binary PLY point cloud at the end (map points, then the\n"
          "                      keyframes' camera centres in magenta; MeshLab, CloudCompare, Open3D)\n"
-         "  --export-map-colour C  colour the PLY's map points by height (default; up = -y) or keyframe\n";
+         "  --export-map-colour C\n"
+         "                      the PLY's point colours: height (default; up = -y) or keyframe\n";
 }
 
 }  // namespace porta::app
