@@ -37,7 +37,7 @@ const char* const kUsage =
   "  demo       render a short stereo sequence along a built-in street loop and run SLAM on it\n"
 #endif
 #if PORTA_APPS_HAVE_MAP
-  "  map        `map info FILE`: describe and check a saved map file\n"
+  "  map        `map info FILE`: describe and check a saved map file; `map export FILE OUT.ply`\n"
 #endif
   "  help       show this text (also: portaslam --help); `portaslam help COMMAND` for details\n"
     "\n"

@@ -10,11 +10,13 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <vector>
 
 #include "cli_args.hpp"
 #include "loop_report.hpp"
+#include "map_report.hpp"
 #include "output_paths.hpp"
 #include "process_memory.hpp"
 #include "porta/registry.hpp"
@@ -90,6 +92,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   check_output_folder("--out", options.out);
   if (!options.save_map.empty()) check_output_file("--save-map", options.save_map, options.out);
   if (!options.json.empty()) check_output_file("--json", options.json, options.out);
+  if (!options.export_map.empty()) check_output_file("--export-map", options.export_map, options.out);
   const auto dataset = slam::open_dataset(options.kind, options.path, options.dataset);
   if (dataset->size() == 0) throw CliError("the dataset " + options.path + " has no stereo frames");
   if (options.first >= dataset->size()) {
@@ -239,10 +242,12 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   slam::write_trajectory(kitti_path, trajectory, slam::TrajectoryFormat::kitti);
   slam::write_kitti_times((fs::path(options.out) / "trajectory_times.txt").string(), trajectory);
   slam::write_trajectory(keyframes_path, system.keyframe_trajectory(), slam::TrajectoryFormat::tum);
+  slam::MapCloud cloud;  // for the export and the top view: the map the counts describe
   {
     std::lock_guard<std::mutex> lock(system.map().mutex);
     summary.keyframes = system.map().num_keyframes();
     summary.map_points = system.map().num_points();
+    cloud = slam::map_cloud(system.map());
   }
 
   // Per-stage timing.
@@ -331,9 +336,11 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
 
   std::string ate_json = "null";
+  std::optional<slam::EvaluationResult> evaluation;
   if (dataset->ground_truth() && trajectory.size() >= slam::kMinimumPairs) {
     try {
-      const slam::EvaluationResult eval = slam::evaluate(*dataset->ground_truth(), trajectory);
+      const slam::EvaluationResult& eval =
+          evaluation.emplace(slam::evaluate(*dataset->ground_truth(), trajectory));
       summary.has_ate = true;
       summary.ate_rmse_m = eval.ate.translation_m.rmse;
       summary.path_length_m = eval.matched_path_length_m;
@@ -365,6 +372,17 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
   std::printf("\nwrote %s, %s (+ trajectory_times.txt), %s\n", tum_path.c_str(), kitti_path.c_str(),
               keyframes_path.c_str());
+  MapOutputOptions map_outputs;
+  map_outputs.export_path = options.export_map;
+  map_outputs.colouring = options.export_colouring;
+  map_outputs.top_view_path = (fs::path(options.out) / "map_top.png").string();
+  map_outputs.title = "PortaSLAM run on " + options.path + ", frames " + std::to_string(options.first) + " to " +
+                      std::to_string(end - 1) +
+                      (options.load_map.empty() ? "" : ", on the map " + options.load_map);
+  const slam::Trajectory* ground_truth = dataset->ground_truth() ? &*dataset->ground_truth() : nullptr;
+  const MapReport map_report =
+      write_map_outputs(cloud, trajectory, ground_truth, evaluation ? &*evaluation : nullptr, map_outputs);
+  summary.exported_vertices = map_report.exported.vertices();
 
   const std::string json_path = options.json.empty() ? (fs::path(options.out) / "summary.json").string() : options.json;
   std::ostringstream json;
@@ -384,7 +402,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
        << summary.frames / std::max(summary.wall_s, 1e-9) << ", \"cpu_s\": " << summary.cpu_s
        << ", \"cpu_s_per_frame\": " << summary.cpu_s / frames << ", \"peak_resident_mib\": "
        << summary.peak_resident_mib << "}"
-       << ",\n  " << loops.json << ",\n  \"memory\": [";
+       << ",\n  " << loops.json << ",\n  " << map_report.json << ",\n  \"memory\": [";
   for (std::size_t k = 0; k < summary.memory.size(); ++k) {
     const SlamRunSummary::MemorySample& m = summary.memory[k];
     json << (k == 0 ? "\n" : ",\n") << "    {\"frame\": " << m.frame << ", \"resident_mib\": " << m.resident_mib
@@ -424,7 +442,8 @@ std::string slam_run_options_usage() {
          "  --no-global-ba      close loops without the global bundle adjustment after each\n"
          "  --save-map FILE     write the map at the end (versioned binary; see portaslam map info)\n"
          "  --load-map FILE     start on a saved map: the first frame relocalises in it, mapping goes on\n"
-         "  --localization      with --load-map: track and relocalise on the map, add nothing to it\n";
+         "  --localization      with --load-map: track and relocalise on the map, add nothing to it\n" +
+         map_output_options_usage();
 }
 
 bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, SlamRunOptions& options) {
@@ -479,6 +498,13 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.load_map = cursor.value(option);
   } else if (option == "--localization" || option == "--localisation") {
     options.localization = true;
+  } else if (option == "--export-map") {
+    options.export_map = cursor.value(option);
+  } else if (option == "--export-map-colour" || option == "--export-map-color") {
+    const std::string name = cursor.value(option);
+    const auto colouring = slam::parse_map_colouring(name);
+    if (!colouring) throw CliError(option + " must be height or keyframe, got '" + name + "'");
+    options.export_colouring = *colouring;
   } else if (option == "--no-loop-closing") {
     options.loop_closing = false;
   } else if (option == "--no-global-ba") {

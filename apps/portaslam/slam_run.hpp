@@ -6,6 +6,7 @@
 #include <string>
 
 #include "porta/slam/dataset.hpp"
+#include "porta/slam/map_export.hpp"
 #include "porta/slam/slam_settings.hpp"
 
 namespace porta::app {
@@ -34,6 +35,8 @@ struct SlamRunOptions {
   std::string save_map;           ///< --save-map FILE: the map at the end of the run
   std::string load_map;           ///< --load-map FILE: continue on a saved map
   bool localization = false;      ///< --localization: track on the loaded map, add nothing
+  std::string export_map;         ///< --export-map FILE: the map as a PLY point cloud at the end
+  slam::MapColouring export_colouring = slam::MapColouring::height;  ///< --export-map-colour
 };
 
 /// What a run measured, for callers that check it (demo, tests).
@@ -45,6 +48,7 @@ struct SlamRunSummary {
   std::size_t late_frames = 0;    ///< with a rate: frames that took longer than their interval
   std::size_t loops_detected = 0, loops_closed = 0, relocalisations = 0, global_ba_runs = 0;
   double map_load_ms = 0.0;
+  std::size_t exported_vertices = 0;  ///< --export-map: vertices in the PLY (map points + keyframe centres)
   /// From the first frame handed over to the last one processed (the frames' loop, not the
   /// start-up or the final writes): wall time, and the process's CPU time over it (every thread:
   /// reader, tracking, mapping, loop closing, the cpu backend's workers).
