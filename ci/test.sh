@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Configures (Ninja, warnings as errors), builds and runs every test: unit, quality, CLI, fuzz
-# (the plain driver) and equivalence; then the sanitizer runs (ci/sanitize.sh: ASan + UBSan with
-# the fuzz targets' plain driver, TSan) and the short libFuzzer run (ci/fuzz.sh: 20 000
+# (the plain driver) and equivalence; then the aarch64 job (ci/cross-aarch64.sh: the cross build
+# for the Jetson's CPU, its unit and SLAM tests under qemu-aarch64, and the cpu frontend's output
+# compared with this build's, byte for byte); then the sanitizer runs (ci/sanitize.sh: ASan +
+# UBSan with the fuzz targets' plain driver, TSan) and the short libFuzzer run (ci/fuzz.sh: 20 000
 # executions per target, fixed seed, about a minute after its build). Exits non-zero when a build
 # or any test fails. Build folder: ./build, or $PORTA_BUILD_DIR. Extra arguments go to CMake.
-# PORTA_SANITIZERS=off skips the sanitizer and libFuzzer runs (a quick local check; CI runs them).
+# PORTA_CROSS=off skips the aarch64 job, PORTA_SANITIZERS=off the sanitizer and libFuzzer runs
+# (both off: a quick local check; CI runs them).
 # Run ci/setup.sh first to install the dependencies.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -19,6 +22,11 @@ export PORTA_EQUIVALENCE_REQUIRE="${PORTA_EQUIVALENCE_REQUIRE:-opencl,vulkan}"
 cmake -S . -B "$build_dir" -G Ninja -DPORTA_WERROR=ON "$@"
 cmake --build "$build_dir" -j "$jobs"
 ctest --test-dir "$build_dir" --output-on-failure --no-tests=error -j "$jobs"
+
+# The product runs on aarch64 boards: the same tests there, and the same features as this build's.
+if [ "${PORTA_CROSS:-on}" != off ]; then
+  PORTA_X86_BUILD_DIR="$build_dir" bash ci/cross-aarch64.sh
+fi
 
 # The fuzz targets run in ctest above and under ASan + UBSan in ci/sanitize.sh (the plain driver:
 # seeds and deterministic mutations), then with libFuzzer's coverage-guided mutations.
