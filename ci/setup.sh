@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs every build and test dependency of PortaSLAM from Debian 12 packages, non-interactively.
 # Safe to re-run. CUDA is not installed here: the build uses it when `nvcc` is already on PATH.
+# The aarch64 job (ci/cross-aarch64.sh) needs the cross compiler and qemu-user from here, and an
+# arm64 sysroot that ci/setup-aarch64.sh makes at the end; PORTA_CROSS=off leaves all three out.
 set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 packages=(
   build-essential cmake ninja-build pkg-config git
@@ -15,6 +18,11 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers glslang-tools spirv-tools vulkan-tools
   opencl-headers ocl-icd-opencl-dev pocl-opencl-icd clinfo
 )
+cross=1
+[ "${PORTA_CROSS:-on}" = off ] && cross=0
+if [ "$cross" = 1 ]; then
+  packages+=(g++-aarch64-linux-gnu qemu-user)  # qemu-user: qemu-aarch64 runs the tests, no binfmt needed
+fi
 
 sudo=""
 if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
@@ -26,11 +34,12 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages already installed"
-  exit 0
+else
+  echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
-
-echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$sudo apt-get update -qq
-$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# The arm64 libraries, unpacked into a folder of this checkout (no root needed, dpkg untouched).
+if [ "$cross" = 1 ]; then bash ci/setup-aarch64.sh; fi
 echo "setup: done"

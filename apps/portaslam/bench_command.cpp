@@ -92,7 +92,12 @@ struct Row {
   double median() const { return percentile(50); }
   /// "cuda", "cuda/4" with 4 frames in flight, "cuda/4+pin" with pinned input images.
   std::string label() const {
-    return backend + (in_flight > 1 ? "/" + std::to_string(in_flight) : "") + (pinned_input ? "+pin" : "");
+    // Appended piece by piece: GCC 12 for aarch64 warns falsely (-Wrestrict, GCC bug 105651) on
+    // `"/" + std::to_string(n)`, and warnings are errors in the cross build too.
+    std::string text = backend;
+    if (in_flight > 1) text += '/' + std::to_string(in_flight);
+    if (pinned_input) text += "+pin";
+    return text;
   }
   double frames_per_s() const { return 1e6 / median(); }
 };

@@ -27,6 +27,7 @@
 #include "cli_args.hpp"
 #include "output_paths.hpp"
 #include "commands.hpp"
+#include "features_dump.hpp"
 #include "features_options.hpp"
 #include "image_files.hpp"
 #include "porta/frontend.hpp"
@@ -249,6 +250,7 @@ std::string write_picture(const std::string& path, const Inputs& in, const RunRe
 int run(const FeaturesOptions& options) {
   options.settings.validate();
   check_output_path(options.out);
+  if (!options.dump.empty()) check_output_file("--dump", options.dump);
   const Inputs in = load_inputs(options);
 
   BackendOptions backend_options;
@@ -292,6 +294,15 @@ int run(const FeaturesOptions& options) {
   print_times(median_times(times), options.repeat, stereo);
 
   std::printf("\n%s\n", write_picture(options.out, in, result, tables).c_str());
+  if (!options.dump.empty()) {
+    try {
+      slam::write_file_atomically(options.dump,
+                                  features_dump_text(result.stereo, in.left.width(), in.left.height(), stereo));
+    } catch (const slam::AtomicWriteError& e) {
+      throw CliError(e.what());
+    }
+    std::printf("wrote %s: every keypoint, descriptor and stereo match as text\n", options.dump.c_str());
+  }
   return 0;
 }
 

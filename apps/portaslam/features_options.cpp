@@ -23,6 +23,10 @@ const std::map<std::string, SettingOption>& value_options() {
       {"--device", {"", [](auto& o, auto&, auto& v) { o.device = v; }}},
       {"--threads", {"", [](auto& o, auto& n, auto& v) { o.threads = parse_threads(n, v); }}},
       {"--out", {"", [](auto& o, auto&, auto& v) { o.out = v; }}},
+      {"--dump", {"", [](auto& o, auto&, auto& v) {
+                     if (v.empty()) throw CliError("option --dump needs a file name");
+                     o.dump = v;
+                   }}},
       {"--repeat", {"", [](auto& o, auto& n, auto& v) { o.repeat = parse_int(n, v); }}},
       {"--levels", {"levels", [](auto& o, auto& n, auto& v) { o.settings.levels = parse_int(n, v); }}},
       {"--scale", {"scale_factor", [](auto& o, auto& n, auto& v) { o.settings.scale_factor = parse_double(n, v); }}},
@@ -116,6 +120,8 @@ std::string features_usage() {
        "  --threads N          cpu backend worker threads, 0 = all hardware threads (default 0)\n"
        "  --repeat N           time N runs after one warm-up run and report medians (default 1)\n"
        "  --out FILE.png       annotated image to write (default features.png)\n"
+       "  --dump FILE          also write every keypoint, descriptor and stereo match as text, in\n"
+       "                       canonical order (compare two runs with cmp; format in docs/USER_GUIDE.md)\n"
        "Frontend settings (docs/ARCHITECTURE.md gives each one's exact meaning):\n"
        "  --levels N           pyramid levels, [1, 12] (default " << d.levels << ")\n"
        "  --scale S            pyramid scale factor, (1, 2] (default " << d.scale_factor << ")\n"

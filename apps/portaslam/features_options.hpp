@@ -16,6 +16,7 @@ struct FeaturesOptions {
   std::string device;                 ///< empty = the backend's default device
   int threads = 0;                    ///< cpu backend worker threads, 0 = all hardware threads
   std::string out = "features.png";
+  std::string dump;                   ///< text file of every keypoint, descriptor and match; empty = none
   int repeat = 1;                     ///< timed runs; >1 adds a warm-up run and reports medians
   FrontendSettings settings;
   bool help = false;

@@ -133,9 +133,16 @@ World build_room_world(const PathSamples& path, std::uint64_t seed) {
   for (int k = 0; k < free_boxes; ++k) {
     const std::uint64_t h = hash_of(seed, 40, k);
     HashRng rng(h);
-    const Eigen::Vector2d c(rng.uniform(lo.x() + 0.6, hi.x() - 0.6), rng.uniform(lo.y() + 0.6, hi.y() - 0.6));
+    // One draw per statement: the order of a call's arguments is unspecified (GCC evaluates them
+    // last-first on x86-64, first-first on aarch64), and the room must be the same on every CPU.
+    // This is x86-64's order, so that rooms rendered before stay the same.
+    const double cy = rng.uniform(lo.y() + 0.6, hi.y() - 0.6);
+    const double cx = rng.uniform(lo.x() + 0.6, hi.x() - 0.6);
     const double angle = rng.uniform(0, 3.14159265);
-    try_box(c, {std::cos(angle), std::sin(angle)}, rng.uniform(0.2, 0.6), rng.uniform(0.2, 0.5), rng.uniform(0.3, 1.4), h);
+    const double height = rng.uniform(0.3, 1.4);
+    const double half_w = rng.uniform(0.2, 0.5);
+    const double half_l = rng.uniform(0.2, 0.6);
+    try_box({cx, cy}, {std::cos(angle), std::sin(angle)}, half_l, half_w, height, h);
   }
   world.build_index(8.0);
   world.description = "room world: " + std::to_string(size.x()).substr(0, 4) + " x " + std::to_string(size.y()).substr(0, 4) +

@@ -179,8 +179,13 @@ World build_street_world(const PathSamples& path, std::uint64_t seed, double cam
       const Nearest n = index.nearest({(li + 0.5) * kLotCells * kCell, (lj + 0.5) * kLotCells * kCell}, 80.0);
       lot.ground_z = std::isfinite(n.distance) ? n.ground_z : 0.0;
       const Material m = std::array{Material::brick, Material::plaster, Material::concrete, Material::plaster}[static_cast<std::size_t>(rng.below(4))];
-      lot.surface = make_surface(m, static_cast<float>(rng.uniform(70, 120)), h, static_cast<float>(rng.uniform(0.8, 1.3)),
-                                 static_cast<float>(rng.uniform(95, 170)));
+      // One draw per statement: the order of a call's arguments is unspecified (GCC evaluates them
+      // last-first on x86-64, first-first on aarch64), and the world must be the same on every CPU.
+      // This is x86-64's order, so that worlds rendered before stay the same.
+      const auto param_c = static_cast<float>(rng.uniform(95, 170));
+      const auto param_b = static_cast<float>(rng.uniform(0.8, 1.3));
+      const auto param_a = static_cast<float>(rng.uniform(70, 120));
+      lot.surface = make_surface(m, param_a, h, param_b, param_c);
       Surface& s = world.surfaces[static_cast<std::size_t>(lot.surface)];
       s.overlay = Overlay::windows;
       s.overlay_params = {static_cast<float>(rng.uniform(2.2, 3.6)),    // window spacing along u (m)

@@ -104,6 +104,16 @@ porta_cli_test(features_bad_output_extension EXIT 1 STDERR "cannot write 'out\\.
                ARGS features --out out.txt)
 porta_cli_test(features_output_folder_missing EXIT 1 STDERR "folder 'no_such_folder' does not exist"
                ARGS features --out no_such_folder/out.png)
+porta_cli_test(features_dump_empty_name EXIT 1 STDERR "option --dump needs a file name"
+               ARGS features --dump= --out dump_empty.png)
+porta_cli_test(features_dump_folder_missing EXIT 1 STDERR "--dump.*folder 'no_such_folder' does not exist"
+               ARGS features --dump no_such_folder/dump.txt --out dump_missing.png)
+
+# ---- features --dump: the text ci/cross-aarch64.sh compares across CPUs (features_dump_check.cmake)
+add_test(NAME cli.features_dump_same_bytes_any_thread_count
+         COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/dump
+                 -DSINGLE_IMAGE=${porta_cli_dir}/colour_96x96.ppm -P ${CMAKE_CURRENT_LIST_DIR}/features_dump_check.cmake)
+set_tests_properties(cli.features_dump_same_bytes_any_thread_count PROPERTIES LABELS cli TIMEOUT 300)
 
 # ---- features: bad settings (the engine's validate() names the field and its range) -------------
 porta_cli_test(features_levels_out_of_range EXIT 1

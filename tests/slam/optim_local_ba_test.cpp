@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "porta/slam/optim/local_bundle_adjustment.hpp"
+#include "random_draws.hpp"
 
 namespace porta::slam::optim {
 namespace {
@@ -61,23 +62,21 @@ Scene synthetic_scene(int num_fixed, unsigned seed, double noise_px = 1.0, doubl
     s.true_T_cw.push_back(T_wc.inverse());
   }
   for (int i = 0; i < 300; ++i) {
-    s.true_points.emplace_back(-2.0 + 6.0 * uniform(rng), -1.5 + 3.0 * uniform(rng),
-                               2.5 + 5.0 * uniform(rng));
+    const Vector3d r = test::draw_xyz(uniform, rng);
+    s.true_points.emplace_back(-2.0 + 6.0 * r.x(), -1.5 + 3.0 * r.y(), 2.5 + 5.0 * r.z());
   }
   for (int k = 0; k < 6; ++k) {
     SE3 T = s.true_T_cw[k];
     if (k >= num_fixed) {  // ~5 cm, ~1 degree off
       SE3 delta = SE3::Identity();
-      delta.linear() = Eigen::AngleAxisd(std::numbers::pi / 180.0,
-                                         Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized())
-                           .toRotationMatrix();
-      delta.translation() = 0.05 * Vector3d(gauss(rng), gauss(rng), gauss(rng)).normalized();
+      const Vector3d axis = test::draw_xyz(gauss, rng).normalized();
+      delta.linear() = Eigen::AngleAxisd(std::numbers::pi / 180.0, axis).toRotationMatrix();
+      delta.translation() = 0.05 * test::draw_xyz(gauss, rng).normalized();
       T = delta * T;
     }
     s.keyframes.push_back({T, k < num_fixed});
   }
-  for (const Vector3d& X : s.true_points)
-    s.points.push_back(X + 0.05 * Vector3d(gauss(rng), gauss(rng), gauss(rng)));
+  for (const Vector3d& X : s.true_points) s.points.push_back(X + 0.05 * test::draw_xyz(gauss, rng));
 
   for (std::size_t k = 0; k < 6; ++k) {
     for (std::size_t i = 0; i < s.true_points.size(); ++i) {
