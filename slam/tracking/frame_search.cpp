@@ -233,7 +233,7 @@ int accept_local_matches(Frame& frame, const std::vector<ProjectedPoint>& points
   return matches;
 }
 
-int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry) {
+int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m) {
   const FrameFeatures& features = *frame.features;
   std::vector<optim::PoseObservation> observations;
   std::vector<std::size_t> feature_of;
@@ -245,7 +245,9 @@ int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry) {
     o.point_world = point->position;
     o.u_left = features.uv[i].x();
     o.v = features.uv[i].y();
-    o.u_right = features.has_depth(i) && features.u_right[i] >= 0.0f ? features.u_right[i] : -1.0;
+    const bool stereo = features.has_depth(i) && features.u_right[i] >= 0.0f &&
+                        static_cast<double>(features.depth_m[i]) <= stereo_depth_limit_m;
+    o.u_right = stereo ? features.u_right[i] : -1.0;
     o.sigma2 = optim::level_sigma2(features.level[i], geometry.pyramid.scale_factor);
     observations.push_back(o);
     feature_of.push_back(i);

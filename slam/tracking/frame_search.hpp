@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "porta/slam/frame.hpp"
@@ -62,8 +63,10 @@ int accept_local_matches(Frame& frame, const std::vector<ProjectedPoint>& points
                          const std::vector<ProjectionResult>& results);
 
 /// Pose-only optimisation over every matched feature of the frame (optim/pose_optimization.hpp):
-/// sets frame.T_cw and frame.outlier; returns the inliers.
-int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry);
+/// sets frame.T_cw and frame.outlier; returns the inliers. Features whose stereo depth exceeds
+/// `stereo_depth_limit_m` count by their left-image position only (monocular observations).
+int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry,
+                        double stereo_depth_limit_m = std::numeric_limits<double>::infinity());
 
 /// Drops the matches flagged as outliers (frame.points[i] = nullptr); returns the matches left
 /// whose point has observations.

@@ -22,7 +22,8 @@ int count_matches(const Frame& frame) {
 }
 
 /// One candidate; returns the inliers (0 when it failed) and says why in `reason`.
-int try_keyframe(Frame& frame, KeyFrame& keyframe, const SearchGeometry& geometry, std::string& reason) {
+int try_keyframe(Frame& frame, KeyFrame& keyframe, const SearchGeometry& geometry, double stereo_depth_limit_m,
+                 std::string& reason) {
   const FrameFeatures& f = *frame.features;
   std::vector<int> all_frame(f.size()), with_point;
   for (std::size_t i = 0; i < f.size(); ++i) all_frame[i] = static_cast<int>(i);
@@ -63,7 +64,7 @@ int try_keyframe(Frame& frame, KeyFrame& keyframe, const SearchGeometry& geometr
     }
   }
   frame.T_cw = pnp.T_cw;
-  int good = optimize_frame_pose(frame, geometry);
+  int good = optimize_frame_pose(frame, geometry, stereo_depth_limit_m);
   discard_outliers(frame);
   if (good < kMinPnpInliers) {
     reason = what + std::to_string(good) + " inliers after pose optimisation";
@@ -71,11 +72,11 @@ int try_keyframe(Frame& frame, KeyFrame& keyframe, const SearchGeometry& geometr
   }
   // More matches by projecting the keyframe's points with the pose found.
   if (good < kMinInliers && good + search_keyframe(frame, keyframe, kWideWindowPx, geometry) >= kMinInliers) {
-    good = optimize_frame_pose(frame, geometry);
+    good = optimize_frame_pose(frame, geometry, stereo_depth_limit_m);
     if (good > kMinInliersToRetry && good < kMinInliers) {
       discard_outliers(frame);
       if (good + search_keyframe(frame, keyframe, kNarrowWindowPx, geometry) >= kMinInliers) {
-        good = optimize_frame_pose(frame, geometry);
+        good = optimize_frame_pose(frame, geometry, stereo_depth_limit_m);
       }
     }
     discard_outliers(frame);
@@ -90,7 +91,8 @@ int try_keyframe(Frame& frame, KeyFrame& keyframe, const SearchGeometry& geometr
 
 }  // namespace
 
-Relocalisation relocalise(Frame& frame, const std::vector<KeyFrame*>& candidates, const SearchGeometry& geometry) {
+Relocalisation relocalise(Frame& frame, const std::vector<KeyFrame*>& candidates, const SearchGeometry& geometry,
+                          double stereo_depth_limit_m) {
   Relocalisation result;
   if (candidates.empty()) {
     result.reason = "the place-recognition database knows no keyframe like this frame (" +
@@ -101,7 +103,7 @@ Relocalisation relocalise(Frame& frame, const std::vector<KeyFrame*>& candidates
   for (KeyFrame* keyframe : candidates) {
     if (keyframe->bad) continue;
     std::string reason;
-    const int inliers = try_keyframe(frame, *keyframe, geometry, reason);
+    const int inliers = try_keyframe(frame, *keyframe, geometry, stereo_depth_limit_m, reason);
     if (inliers > 0) {
       result.ok = true;
       result.keyframe = keyframe;

@@ -19,7 +19,9 @@ struct Relocalisation {
 };
 
 /// Tries the candidates in order; on success frame.T_cw and frame.points hold the pose and the
-/// inlier matches (outliers dropped).
-Relocalisation relocalise(Frame& frame, const std::vector<KeyFrame*>& candidates, const SearchGeometry& geometry);
+/// inlier matches (outliers dropped). `stereo_depth_limit_m` goes to every pose optimisation
+/// (optimize_frame_pose).
+Relocalisation relocalise(Frame& frame, const std::vector<KeyFrame*>& candidates, const SearchGeometry& geometry,
+                          double stereo_depth_limit_m = std::numeric_limits<double>::infinity());
 
 }  // namespace porta::slam::tracking

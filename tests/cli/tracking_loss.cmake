@@ -1,7 +1,9 @@
 # bench/tracking_loss.py (the covered-lens and kidnap copies of docs/BENCHMARKS.md), label cli:
 # on a tiny rendered sequence the black copy has black frames exactly where asked and the same
 # poses, the kidnap copy replays the frames asked for with times going on; bad input (a folder
-# that is not a sequence, a range outside it, an existing destination) exits 1 naming the problem.
+# that is not a sequence, a range outside it, an existing destination; a report without --from,
+# on a folder that holds no run, or from a frame outside the copy) exits 1 naming the problem.
+# The report on a real run is checked by covered_lens.cmake.
 # Registered when included by tests/CMakeLists.txt; the checks run as a script:
 #   cmake -DPORTASLAM=... -DPYTHON=... -DSCRIPT=... -DWORK=... -P tracking_loss.cmake
 if(NOT CMAKE_SCRIPT_MODE_FILE)
@@ -91,6 +93,9 @@ run_script(1 "times.txt: missing" black ${WORK}/nosuch ${WORK}/out1)
 run_script(1 "must lie within the 8 frames" black ${WORK}/seq ${WORK}/out2 --first 7 --count 2)
 run_script(1 "need 0 <= --back < --after" kidnap ${WORK}/seq ${WORK}/out3 --after 2 --back 5)
 run_script(1 "exists; give a new folder" black ${WORK}/seq ${WORK}/black --first 1 --count 1)
+run_script(1 "report needs --from F" report ${WORK}/black ${WORK}/nosuch_run)
+run_script(1 "trajectory_tum.txt: missing" report ${WORK}/black ${WORK}/nosuch_run --from 2)
+run_script(1 "must lie within the 8 frames" report ${WORK}/black ${WORK}/seq --from 9)
 foreach(d out1 out2 out3)
   if(EXISTS ${WORK}/${d} OR EXISTS ${WORK}/${d}.partial)
     message(FATAL_ERROR "a refused copy left ${WORK}/${d}")
