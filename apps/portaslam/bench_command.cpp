@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bench_inputs.hpp"
+#include "bench_kernels.hpp"
 #include "bench_options.hpp"
 #include "cli_args.hpp"
 #include "output_paths.hpp"
@@ -82,6 +83,7 @@ struct Row {
   bool pinned_input = false;  // images in pinned InputImages, no host copy per frame
   std::vector<double> us;  // per timed frame, sorted
   std::vector<double> submit_us, collect_us;  // per timed frame, sorted (ours only)
+  std::vector<KernelTime> kernels;  // --profile-kernels: device time per kernel over the timed frames
   double mean_keypoints = 0.0;
   double mean_matches = 0.0;
   double speedup = 0.0;  // ours: peer median / our median; 0 = no peer
@@ -103,8 +105,9 @@ struct Row {
 };
 
 template <typename TimedCall>  // FrameResult(std::size_t frame)
-void measure(Row& row, int warmup, int frames, TimedCall&& call) {
+void measure(Row& row, int warmup, int frames, TimedCall&& call, Backend* profiled = nullptr) {
   for (int i = 0; i < warmup; ++i) call(static_cast<std::size_t>(i));
+  if (profiled != nullptr) profiled->kernel_times(true);  // from the first timed frame on
   double keypoints = 0.0, matches = 0.0;
   for (int i = 0; i < frames; ++i) {
     const FrameResult r = call(static_cast<std::size_t>(warmup + i));
@@ -114,6 +117,7 @@ void measure(Row& row, int warmup, int frames, TimedCall&& call) {
     keypoints += r.keypoints;
     matches += r.matches;
   }
+  if (profiled != nullptr) row.kernels = profiled->kernel_times(true);
   std::sort(row.us.begin(), row.us.end());
   std::sort(row.submit_us.begin(), row.submit_us.end());
   std::sort(row.collect_us.begin(), row.collect_us.end());
@@ -141,6 +145,7 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
   frontend_options.in_flight = row.in_flight;
   Frontend frontend(backend, settings, row.size.width, row.size.height, frontend_options);
   const bool stereo = row.mode == BenchMode::stereo;
+  Backend* const profiled = options.profile_kernels ? &backend : nullptr;
   // Pinned input: every distinct input image in an InputImage of its own, filled before timing (as
   // a camera's DMA would fill them); frame i reads image i % count, the same images as the copy rows.
   // The device only reads them, so frames in flight may share one.
@@ -184,7 +189,7 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
       r.us = elapsed_us(t0);
       r.submit_us = submit_us;
       return r;
-    });
+    }, profiled);
     return;
   }
   // Throughput: N frames always in flight; a frame's time is the interval from the previous frame's
@@ -200,7 +205,7 @@ void time_ours(Row& row, Backend& backend, const BenchFrames& in, const BenchOpt
     r.us = std::chrono::duration<double, std::micro>(now - last).count();
     last = now;
     return r;
-  });
+  }, profiled);
   while (frontend.pending() > 0) collect();
 }
 
@@ -466,6 +471,8 @@ void write_json(std::ostream& out, const Report& r) {
       out << ", \"submit_median_us\": " << median_of(row.submit_us)
           << ", \"collect_median_us\": " << median_of(row.collect_us);
     if (row.speedup > 0) out << ", \"speedup_vs_peer\": " << row.speedup;
+    if (r.options.profile_kernels && row.backend != kPeerName)
+      out << ", \"kernels\": " << kernel_profile_json(row.kernels, row.us.size());
     out << "}";
   }
   out << "\n  ]\n}\n";
@@ -485,6 +492,7 @@ std::vector<std::unique_ptr<Backend>> create_backends(const BenchOptions& option
   BackendOptions backend_options;
   backend_options.threads = options.threads;
   backend_options.device = options.device;
+  backend_options.profile_kernels = options.profile_kernels;
   std::vector<std::unique_ptr<Backend>> backends;
   for (const auto& name : names)
     backends.push_back(BackendRegistry::instance().create(name, backend_options));
@@ -572,6 +580,16 @@ int run(const BenchOptions& options) {
 
   print_header(report);
   print_table(report);
+  if (options.profile_kernels) {
+    std::vector<KernelProfileRow> profiles;
+    for (const Row& row : report.rows) {
+      if (row.backend == kPeerName || !row.error.empty()) continue;
+      profiles.push_back({row.label() + ", " + row.size.text() + ", " + std::to_string(row.levels) + " levels, " +
+                              mode_name(row.mode),
+                          row.us.size(), row.kernels});
+    }
+    print_kernel_profiles(profiles, stdout);
+  }
   if (!options.json.empty()) {
     std::ostringstream json;
     write_json(json, report);

@@ -145,6 +145,9 @@ BenchOptions parse_bench_options(const std::vector<std::string>& args) {
     } else if (arg == "--no-peer") {
       if (cursor.has_inline_value()) throw CliError("option --no-peer takes no value");
       options.peer = false;
+    } else if (arg == "--profile-kernels") {
+      if (cursor.has_inline_value()) throw CliError("option --profile-kernels takes no value");
+      options.profile_kernels = true;
     } else if (takes_value(arg)) {
       apply_value(options, arg, cursor.value(arg));
     } else if (arg.size() > 1 && arg[0] == '-') {
@@ -186,6 +189,9 @@ std::string bench_usage() {
          "  --threads N          cpu backend worker threads, 0 = all hardware threads (default 0)\n"
          "  --device D           device index or name substring of the non-cpu backends\n"
          "  --no-peer            do not time OpenCV's cv::ORB\n"
+         "  --profile-kernels    vulkan and opencl: also time every dispatch on the device (timestamp\n"
+         "                       queries, profiling events) and print each row's time per kernel and\n"
+         "                       frame; the timing adds host work, so compare frame times without it\n"
          "  --json FILE          also write every number, the machine, date and commit as JSON\n"
          "  --data DIR           the shared data folder (default: $PORTA_DATA_DIR, else ../shared/data\n"
          "                       from the current folder, else from the source tree)\n"

@@ -36,6 +36,7 @@ struct BenchOptions {
   int threads = 0;     ///< cpu backend worker threads, 0 = all hardware threads
   std::string device;  ///< device of the non-cpu backends; empty = each backend's default
   bool peer = true;    ///< time OpenCV's cv::ORB on the same images too
+  bool profile_kernels = false;  ///< vulkan, opencl: device time per kernel (BackendOptions::profile_kernels)
   std::string json;    ///< write every number there as JSON; empty = no JSON
   std::string data;    ///< --data; empty = $PORTA_DATA_DIR, then ../shared/data
   bool help = false;

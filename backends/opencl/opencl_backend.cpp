@@ -121,11 +121,15 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
                                          reinterpret_cast<cl_context_properties>(device_.platform), 0};
   context_ = clCreateContext(props, 1, &device_.device, nullptr, nullptr, &err);
   check(err, "clCreateContext", device_.label());
-  queue_ = clCreateCommandQueue(context_, device_.device, 0, &err);
+  // Profiling is a property of the queue (every OpenCL device supports it).
+  queue_ = clCreateCommandQueue(context_, device_.device, options.profile_kernels ? CL_QUEUE_PROFILING_ENABLE : 0,
+                                &err);
   check(err, "clCreateCommandQueue", device_.label());
+  profile_kernels_ = options.profile_kernels;
 }
 
 OpenClBackend::~OpenClBackend() {
+  for (auto& [name, event] : timed_) clReleaseEvent(event);
   scratch_.clear();
   for (auto& [name, k] : kernels_) clReleaseKernel(k);
   for (auto& [name, p] : programs_) clReleaseProgram(p);
@@ -231,9 +235,34 @@ void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& r
     }
   }
   std::size_t local[2] = {range.local[0], range.local[1] ? range.local[1] : 1};
+  cl_event event = nullptr;
   check(clEnqueueNDRangeKernel(queue_, k, static_cast<cl_uint>(range.dims), nullptr, global,
-                               has_local ? local : nullptr, 0, nullptr, nullptr),
+                               has_local ? local : nullptr, 0, nullptr, profile_kernels_ ? &event : nullptr),
         "clEnqueueNDRangeKernel", kernel_name);
+  if (event != nullptr) timed_.emplace_back(kernel_name, event);
+}
+
+void OpenClBackend::read_timed_events() {
+  std::vector<std::pair<std::string, cl_event>> timed = std::move(timed_);
+  timed_.clear();
+  std::string failure;
+  for (auto& [name, event] : timed) {
+    cl_ulong start = 0, end = 0;
+    const cl_int a = clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_START, sizeof(start), &start, nullptr);
+    const cl_int b = clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_END, sizeof(end), &end, nullptr);
+    clReleaseEvent(event);
+    if (a != CL_SUCCESS || b != CL_SUCCESS) {
+      if (failure.empty()) failure = name;
+      continue;
+    }
+    profile_.add(name, end >= start ? static_cast<double>(end - start) * 1e-6 : 0.0);
+  }
+  if (!failure.empty()) check(CL_PROFILING_INFO_NOT_AVAILABLE, "clGetEventProfilingInfo", failure);
+}
+
+std::vector<KernelTime> OpenClBackend::kernel_times(bool reset) {
+  synchronize();
+  return profile_.take(reset);
 }
 
 std::unique_ptr<Buffer> OpenClBackend::allocate(std::size_t bytes) {
@@ -275,7 +304,10 @@ void OpenClBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std
         "clEnqueueFillBuffer");
 }
 
-void OpenClBackend::synchronize() { check(clFinish(queue_), "clFinish"); }
+void OpenClBackend::synchronize() {
+  check(clFinish(queue_), "clFinish");
+  read_timed_events();  // complete now; their events are not kept past a synchronize
+}
 
 Buffer& OpenClBackend::scratch(const std::string& name, std::size_t bytes) {
   auto& slot = scratch_[name];

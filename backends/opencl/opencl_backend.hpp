@@ -9,9 +9,11 @@
 #include <map>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_profile.hpp"
 #include "porta/registry.hpp"
 
 namespace porta::opencl {
@@ -65,6 +67,7 @@ class OpenClBackend final : public Backend {
   void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) override;
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
   void synchronize() override;
+  std::vector<KernelTime> kernel_times(bool reset) override;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 
@@ -97,6 +100,8 @@ class OpenClBackend final : public Backend {
   }
   void set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint index, std::size_t size, const void* value);
   void enqueue(cl_kernel k, const char* kernel_name, const Range& range);
+  /// Adds the finished timed dispatches to profile_ and releases their events.
+  void read_timed_events();
   cl_program program(const char* name);
   cl_program build_program(const std::string& name, const std::string& source);
 
@@ -106,6 +111,9 @@ class OpenClBackend final : public Backend {
   std::map<std::string, cl_program> programs_;
   std::map<std::string, cl_kernel> kernels_;
   std::map<std::string, std::unique_ptr<Buffer>> scratch_;
+  bool profile_kernels_ = false;
+  std::vector<std::pair<std::string, cl_event>> timed_;  ///< dispatches since the last synchronize
+  KernelProfile profile_;
 };
 
 }  // namespace porta::opencl

@@ -62,6 +62,7 @@ Runtime::Runtime(const BackendOptions& options) : ctx_(std::make_unique<Context>
   cmd_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
   cmd_info.commandBufferCount = 1;
   check(vkAllocateCommandBuffers(dev, &cmd_info, &transfer_cmd_), "vkAllocateCommandBuffers", "transfers");
+  if (options.profile_kernels) create_timestamp_pool();
 
   // The parameter buffer: one dynamic storage-buffer descriptor, each dispatch at its own offset.
   params_ = make_memory(kParamsArea + kMaxParamsBytes, true);
@@ -305,6 +306,51 @@ void Runtime::collect_garbage() {
   for (auto& m : garbage) destroy_now(std::move(m));
 }
 
+// ---- Per-kernel timing ---------------------------------------------------------------------------
+
+void Runtime::create_timestamp_pool() {
+  std::uint32_t families = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(ctx_->physical(), &families, nullptr);
+  std::vector<VkQueueFamilyProperties> props(families);
+  vkGetPhysicalDeviceQueueFamilyProperties(ctx_->physical(), &families, props.data());
+  const std::uint32_t bits = ctx_->queue_family() < families ? props[ctx_->queue_family()].timestampValidBits : 0;
+  if (bits == 0 || !(ctx_->limits().timestampPeriod > 0.0f)) {
+    throw BackendError("vulkan: per-kernel timing asked, but this device's compute queue writes no timestamps "
+                       "(timestampValidBits " + std::to_string(bits) + ", timestampPeriod " +
+                       std::to_string(ctx_->limits().timestampPeriod) + ")");
+  }
+  timestamp_mask_ = bits >= 64 ? ~0ull : (1ull << bits) - 1;
+  timestamp_ns_ = ctx_->limits().timestampPeriod;
+  auto info = make_info<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
+  info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  info.queryCount = 2 * kMaxTimedDispatches;
+  VkQueryPool pool = VK_NULL_HANDLE;
+  check(vkCreateQueryPool(ctx_->device(), &info, nullptr, &pool), "vkCreateQueryPool", "kernel timestamps");
+  timestamps_ = Unique<VkQueryPool>(ctx_->device(), pool, vkDestroyQueryPool);
+}
+
+void Runtime::read_timestamps() {
+  std::vector<const Kernel*> timed;
+  for (const Command& c : pending_) {
+    if (c.kind == Command::Kind::kDispatch && timed.size() < kMaxTimedDispatches) timed.push_back(c.kernel);
+  }
+  if (timed.empty()) return;
+  std::vector<std::uint64_t> ticks(2 * timed.size());
+  check(vkGetQueryPoolResults(ctx_->device(), timestamps_.get(), 0, static_cast<std::uint32_t>(ticks.size()),
+                              ticks.size() * sizeof(std::uint64_t), ticks.data(), sizeof(std::uint64_t),
+                              VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+        "vkGetQueryPoolResults", "kernel timestamps");
+  for (std::size_t d = 0; d < timed.size(); ++d) {
+    const std::uint64_t ticks_run = (ticks[2 * d + 1] - ticks[2 * d]) & timestamp_mask_;
+    profile_.add(timed[d]->name, static_cast<double>(ticks_run) * timestamp_ns_ * 1e-6);
+  }
+}
+
+std::vector<KernelTime> Runtime::kernel_times(bool reset) {
+  flush();
+  return profile_.take(reset);
+}
+
 // ---- Batches -------------------------------------------------------------------------------------
 
 std::vector<std::uint64_t> Runtime::signature() const {
@@ -346,6 +392,14 @@ void Runtime::record(VkCommandBuffer cmd, bool one_time) {
   between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                           VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
   const Kernel* bound = nullptr;
+  std::uint32_t dispatches = 0;  // timed so far
+  if (timestamps_) {
+    const auto timed = static_cast<std::uint32_t>(std::min<std::size_t>(
+        kMaxTimedDispatches, std::count_if(pending_.begin(), pending_.end(), [](const Command& c) {
+          return c.kind == Command::Kind::kDispatch;
+        })));
+    if (timed > 0) vkCmdResetQueryPool(cmd, timestamps_.get(), 0, 2 * timed);
+  }
   for (std::size_t i = 0; i < pending_.size(); ++i) {
     const Command& c = pending_[i];
     if (i > 0) vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
@@ -365,7 +419,13 @@ void Runtime::record(VkCommandBuffer cmd, bool one_time) {
         if (k.push && c.push_bytes > 0)
           vkCmdPushConstants(cmd, k.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, c.push_bytes,
                              c.push.data());
+        const bool timed = timestamps_ && dispatches < kMaxTimedDispatches;
+        if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps_.get(), 2 * dispatches);
         vkCmdDispatch(cmd, c.groups[0], c.groups[1], c.groups[2]);
+        if (timed) {
+          vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps_.get(), 2 * dispatches + 1);
+          ++dispatches;
+        }
         break;
       }
       case Command::Kind::kCopy: {
@@ -449,6 +509,7 @@ void Runtime::flush() {
     const VkFence fence = fence_.get();
     check(vkWaitForFences(dev, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
     check(vkResetFences(dev, 1, &fence), "vkResetFences");
+    if (timestamps_) read_timestamps();
   } catch (...) {
     finish();
     throw;

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_profile.hpp"
 #include "vulkan/vk_context.hpp"
 #include "vulkan/vulkan_backend.hpp"
 
@@ -81,6 +82,8 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value);
   /// Submits the pending batch (if any) and waits for it.
   void flush();
+  /// Backend::kernel_times: flushes, then the totals of the timed dispatches.
+  std::vector<KernelTime> kernel_times(bool reset);
 
   /// Records a dispatch of `kernel` (a shader of shaders/vulkan) binding `buffers` to set 0,
   /// bindings 0..N-1, with `params` as push constants or in the parameter buffer (whichever the
@@ -155,6 +158,11 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   VkDescriptorSet allocate_set(VkDescriptorSetLayout layout, VkDescriptorPool& from);
   void record(VkCommandBuffer cmd, bool one_time);
   std::vector<std::uint64_t> signature() const;
+  /// BackendOptions::profile_kernels: the timestamp query pool, or a BackendError when the queue
+  /// cannot write timestamps.
+  void create_timestamp_pool();
+  /// After a batch's fence: adds its dispatches' timestamps to profile_.
+  void read_timestamps();
 
   std::unique_ptr<Context> ctx_;  // first: destroyed last, after every object below
   VulkanStats stats_;
@@ -191,6 +199,14 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   VkCommandBuffer transfer_cmd_ = VK_NULL_HANDLE;  // for batches of copies and fills only
   std::vector<CachedBatch> cache_;
   std::uint64_t batch_clock_ = 0;
+
+  // Per-kernel timing (BackendOptions::profile_kernels): two timestamps around each of the first
+  // kMaxTimedDispatches dispatches of a batch; later ones in the same batch are not timed.
+  static constexpr std::uint32_t kMaxTimedDispatches = 1024;
+  Unique<VkQueryPool> timestamps_;
+  std::uint64_t timestamp_mask_ = ~0ull;
+  double timestamp_ns_ = 1.0;  ///< ns per timestamp tick
+  KernelProfile profile_;
 };
 
 }  // namespace porta::vulkan

@@ -30,6 +30,8 @@ void VulkanBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std
 
 void VulkanBackend::synchronize() { runtime_->flush(); }
 
+std::vector<KernelTime> VulkanBackend::kernel_times(bool reset) { return runtime_->kernel_times(reset); }
+
 VulkanStats VulkanBackend::stats() const { return runtime_->stats(); }
 
 bool VulkanBackend::validation_enabled() const { return runtime_->context().validation(); }

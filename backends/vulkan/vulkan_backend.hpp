@@ -82,6 +82,7 @@ class VulkanBackend final : public Backend {
   void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) override;
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
   void synchronize() override;
+  std::vector<KernelTime> kernel_times(bool reset) override;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 

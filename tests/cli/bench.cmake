@@ -69,6 +69,13 @@ frames/s"
       break()
     endif()
   endforeach()
+  # --profile-kernels: the per-kernel section follows the table; a backend that does not time its
+  # kernels says so (the vulkan and opencl tables are tested in tests/unit/kernel_profile_test.cpp).
+  porta_cli_test(bench_profile_kernels_cpu EXIT 0
+                 STDOUT "Per-kernel device time.*\ncpu, 320x240, 1 levels, detect, 3 frames\n  no per-kernel device timing on this backend"
+                 ARGS bench ${tiny} --backend cpu --no-peer --profile-kernels)
+  porta_cli_test(bench_profile_kernels_takes_no_value EXIT 1 STDERR "option --profile-kernels takes no value"
+                 ARGS bench --profile-kernels=yes)
   porta_cli_test(bench_frames_zero EXIT 1
                  STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
   porta_cli_test(bench_frames_negative EXIT 1

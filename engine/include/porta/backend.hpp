@@ -109,6 +109,13 @@ struct StereoParams {
   int max_hamming = 75;  ///< best distance must be strictly below
 };
 
+/// Device time of one kernel, summed over its dispatches (BackendOptions::profile_kernels).
+struct KernelTime {
+  std::string kernel;
+  std::uint64_t dispatches = 0;
+  double device_ms = 0.0;
+};
+
 // ---- The interface -------------------------------------------------------------------------------
 
 class Backend {
@@ -133,6 +140,14 @@ class Backend {
   virtual void synchronize() = 0;
   /// True when device buffers are host memory (no copy is needed to read them on the host).
   virtual bool host_visible() const { return false; }
+  /// Device time per kernel since the backend was made or since the last call with `reset`, in
+  /// the order the kernels were first dispatched; waits for the work submitted so far. Empty
+  /// unless the backend was made with BackendOptions::profile_kernels and times kernels (vulkan,
+  /// opencl).
+  virtual std::vector<KernelTime> kernel_times(bool reset) {
+    (void)reset;
+    return {};
+  }
 
   // ---- Queues and asynchronous transfers (DESIGN.md §4) -------------------------------------------
   //

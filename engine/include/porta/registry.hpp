@@ -17,6 +17,10 @@ struct BackendOptions {
   std::string device;
   /// cpu backend: worker threads, 0 = all hardware threads.
   int threads = 0;
+  /// vulkan and opencl: time every dispatch on the device (Vulkan timestamp queries, OpenCL
+  /// profiling events), read with Backend::kernel_times(). It costs a little per dispatch, so
+  /// leave it off for timing whole frames. The cpu and cuda backends ignore it.
+  bool profile_kernels = false;
 };
 
 struct BackendInfo {

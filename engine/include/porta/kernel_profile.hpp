@@ -1,0 +1,40 @@
+// Per-kernel device-time totals, as the backends that time their dispatches keep them
+// (BackendOptions::profile_kernels, Backend::kernel_times()).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "porta/backend.hpp"
+
+namespace porta {
+
+class KernelProfile {
+ public:
+  /// One dispatch of `kernel` that ran `device_ms` on the device.
+  void add(const std::string& kernel, double device_ms) {
+    auto [it, inserted] = index_.try_emplace(kernel, totals_.size());
+    if (inserted) totals_.push_back({kernel, 0, 0.0});
+    KernelTime& t = totals_[it->second];
+    ++t.dispatches;
+    t.device_ms += device_ms;
+  }
+  /// The totals in first-dispatch order; `reset` starts them again.
+  std::vector<KernelTime> take(bool reset) {
+    std::vector<KernelTime> out = totals_;
+    if (reset) {
+      totals_.clear();
+      index_.clear();
+    }
+    return out;
+  }
+
+ private:
+  std::vector<KernelTime> totals_;
+  std::map<std::string, std::size_t> index_;
+};
+
+}  // namespace porta
