@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Issue 16's cells on a GPU machine, kernel by kernel (docs/BENCHMARKS.md, "Per-kernel profile"):
+# builds portaslam with every backend the machine supports, times the four cells of the issue's
+# table (1242x375 8 levels stereo and extract, 752x480 8 levels detect, 320x240 1 level detect) on
+# every backend that finds a device, one frame at a time, then again with --profile-kernels on
+# vulkan and opencl: the device time of each kernel per frame (timestamp queries, profiling events).
+#
+#   usage: ci/gpu-kernel-profile.sh [OUT_DIR]      (default OUT_DIR: ./gpu-kernel-profile)
+#   without network: ci/gpu-carried.sh DEPS_DIR OUT_DIR ci/gpu-kernel-profile.sh
+#
+# Results in OUT_DIR: report.md (machine, the frame times, the per-kernel tables), frames-*.txt and
+# .json (portaslam bench without profiling), kernels-*.txt and .json (with it), backends.txt,
+# machine.txt, build.log. Exit status: 0 when the build and every bench run succeeded.
+# Environment: PORTA_PROFILE_FRAMES (timed frames per cell, default 200; warm-up 20),
+# PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
+# PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh).
+set -uo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
+
+mkdir -p "${1:-gpu-kernel-profile}" && out_dir="$(cd "${1:-gpu-kernel-profile}" && pwd)" || exit 1
+build_dir="${PORTA_PROFILE_BUILD_DIR:-build-gpu-bench}"
+frames="${PORTA_PROFILE_FRAMES:-200}"
+say() { echo "gpu-kernel-profile.sh: $*"; }
+# shellcheck source=ci/gpu-common.sh
+source ci/gpu-common.sh
+
+gpu_machine_info
+gpu_register_opencl
+gpu_build "$build_dir" portaslam || exit 1
+"$binary" backends | tee "$out_dir/backends.txt"
+available() { awk -v b="$1" 'NR > 1 && $1 == b && $2 == "yes" && $3 == "yes" {found = 1} END {exit !found}' "$out_dir/backends.txt"; }
+all="" timed=""
+for b in cpu cuda vulkan opencl; do
+  available "$b" || continue
+  all="${all:+$all,}$b"
+  case "$b" in vulkan | opencl) timed="${timed:+$timed,}$b" ;; esac
+done
+[ -n "$all" ] || { say "no backend available"; exit 1; }
+
+status=0
+# name: resolution levels modes
+cells=("1242x375-8:1242x375 8 stereo,extract" "752x480-8:752x480 8 detect" "320x240-1:320x240 1 detect")
+for cell in "${cells[@]}"; do
+  name="${cell%%:*}"
+  read -r size levels modes <<<"${cell#*:}"
+  common=(--resolutions "$size" --levels "$levels" --modes "$modes" --frames "$frames" --warmup 20 --no-peer)
+  say "cell $name: frame times on $all"
+  "$binary" bench --backend "$all" "${common[@]}" --json "$out_dir/frames-$name.json" \
+    >"$out_dir/frames-$name.txt" 2>>"$out_dir/bench.log" || status=1
+  if [ -n "$timed" ]; then
+    say "cell $name: per-kernel device time on $timed"
+    "$binary" bench --backend "$timed" "${common[@]}" --profile-kernels --json "$out_dir/kernels-$name.json" \
+      >"$out_dir/kernels-$name.txt" 2>>"$out_dir/bench.log" || status=1
+  fi
+done
+
+{
+  echo "# Per-kernel profile on $(hostname)"
+  echo
+  echo '```'
+  cat "$out_dir/machine.txt"
+  echo '```'
+  for cell in "${cells[@]}"; do
+    name="${cell%%:*}"
+    echo
+    echo "## $name"
+    echo
+    echo '```'
+    cat "$out_dir/frames-$name.txt" 2>/dev/null
+    sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name.txt" 2>/dev/null
+    echo '```'
+  done
+} >"$out_dir/report.md"
+say "results in $out_dir (report.md); exit status $status"
+exit "$status"
