@@ -69,7 +69,11 @@ void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
          static_cast<cl_int>(params.threshold), static_cast<cl_int>(params.edge));
 }
 
-// §3.4: one work-item per cell of every level, one launch.
+/// Cells of at most this many pixels are culled one work-item per cell: a 64-wide work-group and
+/// its barriers for a handful of pixels cost more than the scan (as on vulkan).
+constexpr std::int64_t kSmallCellPixels = 256;
+
+// §3.4: one launch over the cells of every level: a work-group per large cell, else a work-item.
 void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                                const CellLayout& cell_layout, Buffer& cells) {
   if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
@@ -87,6 +91,20 @@ void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
     require_plane_inside(responses, p, 2, "cull_cells", "response level");
   require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells", "the cell array");
   if (end_cell == 0) return;
+  // Large cells on a GPU: a 64-wide work-group per cell (cull_cells_group); small ones, a CPU
+  // device (work_groups()), or a grid the group kernel's 32-bit cell index cannot hold: one
+  // work-item per cell. The same bytes either way.
+  std::int64_t largest_cell = 0;
+  bool regular = true;
+  for (const LevelCells& c : cell_layout.levels) {
+    regular = regular && c.cell_w > 0 && c.cell_h > 0;
+    largest_cell = std::max(largest_cell, static_cast<std::int64_t>(c.cell_w) * c.cell_h);
+  }
+  if (work_groups() && regular && largest_cell > kSmallCellPixels && largest_cell <= (std::int64_t{1} << 24)) {
+    launch("detect", "cull_cells_group", Range::linear(static_cast<std::size_t>(end_cell) * 64, 64), responses,
+           to_cl(response_layout), to_cl(cell_layout), cells);
+    return;
+  }
   launch("detect", "cull_cells", Range::linear(static_cast<std::size_t>(end_cell)), responses,
          to_cl(response_layout), to_cl(cell_layout), cells);
 }

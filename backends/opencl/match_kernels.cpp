@@ -62,7 +62,12 @@ void OpenClBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right
   Buffer& histogram = scratch("stereo_match.histogram", kHistogramBytes);
   fill(histogram, 0, kHistogramBytes, 0);
   const Range per_left = Range::linear(static_cast<std::size_t>(left_capacity));
-  launch("match", "stereo_match_candidates", per_left, left_pyramid, right_pyramid, cl_layout,
+  // A GPU scans the right list with a 64-wide work-group per left keypoint; a CPU device (PoCL),
+  // whose work-items run as loops, with one work-item each (work_groups()). The same bytes.
+  const bool grouped = work_groups();
+  launch("match", grouped ? "stereo_match_candidates_group" : "stereo_match_candidates",
+         grouped ? Range::linear(static_cast<std::size_t>(left_capacity) * 64, 64) : per_left, left_pyramid,
+         right_pyramid, cl_layout,
          *left_keypoints.items, *left_keypoints.count,
          static_cast<cl_long>(left_keypoints.count_offset_bytes), static_cast<cl_int>(left_capacity),
          left_descriptors, right_items, right_count, static_cast<cl_long>(right_keypoints.count_offset_bytes),

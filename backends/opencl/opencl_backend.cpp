@@ -126,6 +126,13 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
                                 &err);
   check(err, "clCreateCommandQueue", device_.label());
   profile_kernels_ = options.profile_kernels;
+  work_groups_ = device_.is_gpu;
+  if (const char* env = std::getenv("PORTA_OPENCL_WORK_GROUPS"); env != nullptr && *env != '\0') {
+    const std::string value = env;
+    if (value != "on" && value != "off")
+      throw BackendError("opencl: PORTA_OPENCL_WORK_GROUPS must be on or off, got '" + value + "'");
+    work_groups_ = value == "on";
+  }
 }
 
 OpenClBackend::~OpenClBackend() {

@@ -86,6 +86,11 @@ class OpenClBackend final : public Backend {
   /// Scratch device memory that lives as long as the backend, grown on demand (never shrunk).
   Buffer& scratch(const std::string& name, std::size_t bytes);
   cl_command_queue queue() const { return queue_; }
+  /// Kernels with a work-group per item (cull_cells_group, stereo_match_candidates_group) instead
+  /// of a work-item: on a GPU, where they pay; a CPU device (PoCL) runs work-items as loops, and
+  /// there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
+  /// runs both kinds on PoCL). The bytes are the same either way.
+  bool work_groups() const { return work_groups_; }
 
  private:
   template <typename T>
@@ -112,6 +117,7 @@ class OpenClBackend final : public Backend {
   std::map<std::string, cl_kernel> kernels_;
   std::map<std::string, std::unique_ptr<Buffer>> scratch_;
   bool profile_kernels_ = false;
+  bool work_groups_ = false;
   std::vector<std::pair<std::string, cl_event>> timed_;  ///< dispatches since the last synchronize
   KernelProfile profile_;
 };

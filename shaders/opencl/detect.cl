@@ -101,6 +101,56 @@ __kernel void cull_cells(__global const ushort* responses, const porta_levels re
   out[cell] = kp;
 }
 
+// §3.4 for cells of more than 256 pixels (the backend picks): one 64-wide work-group per cell
+// instead of one work-item. Each work-item scans a strided share of the cell, then the group
+// reduces through local memory. The key (response << 32) | ~(row-major index in the cell) makes
+// the maximum the largest response with ties to the smaller row, then column, as cull_cells'
+// scan, whatever the order of the comparisons: the same bytes.
+__kernel __attribute__((reqd_work_group_size(64, 1, 1)))
+void cull_cells_group(__global const ushort* responses, const porta_levels response_layout,
+                      const porta_cells cells, __global porta_keypoint* out) {
+  __local ulong best[64];
+  const int cell = (int)get_group_id(0);
+  const int lid = (int)get_local_id(0);
+  const int n = porta_locate_cell(&cells, cell);
+  if (n < 0) return;  // the whole group: `cell` is uniform
+  const porta_level_cells grid = cells.level[n];
+  const porta_plane plane = response_layout.level[n];
+  const int index = cell - grid.first_cell;
+  const int cell_y = index / grid.cols;
+  const int cell_x = index - cell_y * grid.cols;
+  const int y0 = cell_y * grid.cell_h;
+  const int x0 = cell_x * grid.cell_w;
+  const int w = min(x0 + grid.cell_w, plane.width) - x0;
+  const int h = min(y0 + grid.cell_h, plane.height) - y0;
+  __global const ushort* level = (__global const ushort*)((__global const uchar*)responses + plane.offset_bytes);
+  ulong key = 0;
+  for (int i = lid; i < w * h; i += 64) {
+    const int dy = i / w;
+    const int dx = i - dy * w;
+    const ulong r = (ulong)level[(long)(y0 + dy) * plane.pitch + x0 + dx];
+    const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
+    key = k > key ? k : key;
+  }
+  best[lid] = key;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int stride = 32; stride > 0; stride >>= 1) {
+    if (lid < stride && best[lid + stride] > best[lid]) best[lid] = best[lid + stride];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid != 0) return;
+  const ulong k = best[0];
+  const ushort r = (ushort)(k >> 32);
+  const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
+  porta_keypoint kp;
+  kp.x = r > 0 ? (ushort)(x0 + i % w) : (ushort)0;
+  kp.y = r > 0 ? (ushort)(y0 + i / w) : (ushort)0;
+  kp.response = r;
+  kp.level = r > 0 ? (uchar)n : (uchar)0;
+  kp.angle_bin = 0;
+  out[cell] = kp;
+}
+
 // PFA helper: the level-0 location index L = Y * width0 + X of a keypoint, X = (x * S[level]) >> 16
 // and Y likewise, clamped to the level-0 image (64-bit products, as the cpu backend).
 inline uint porta_pfa_location(const porta_keypoint kp, const porta_level_ints scales, const int width0,

@@ -54,24 +54,21 @@ inline int match_centred_sad(__global const uchar* left, __global const uchar* r
 
 // Steps a-e of §3.9 for one left keypoint (stereo_match's match_left_keypoint); returns the SAD of
 // the match, or -1 for "no match" (then *disparity and *right_index are not set).
-inline int match_left_keypoint(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
-                               const porta_levels* layout, porta_keypoint kl,
-                               __global const uint* left_descriptor, __global const porta_keypoint* right,
-                               __global const uint* right_descriptors, int num_right,
-                               const porta_level_ints* scales, const porta_level_ints* radius,
-                               int min_disparity, int max_disparity, int max_hamming, int* disparity,
-                               int* right_index) {
+// Steps a, b over the right keypoints first, first + step, ...: the candidate of smallest Hamming
+// distance as the key (distance << 32) | index, whose minimum over any split of the list is the
+// scan's "smallest distance, ties to the lower index"; ~0 for none.
+inline ulong match_scan_right(const porta_levels* layout, porta_keypoint kl, __global const uint* left_descriptor,
+                              __global const porta_keypoint* right, __global const uint* right_descriptors,
+                              int first, int step, int num_right, const porta_level_ints* scales,
+                              const porta_level_ints* radius, int min_disparity, int max_disparity) {
   const int levels = layout->count;
   const int nl = kl.level;
-  if (nl >= levels) return -1;
+  ulong best = ~0ul;
+  if (nl >= levels) return best;
   const int ul = match_level0_q8(kl.x, scales->v[nl]);
   const int vl = match_level0_q8(kl.y, scales->v[nl]);
-
-  // a, b: the candidate of smallest Hamming distance; a scan in index order keeps the lower index.
-  int best_j = -1;
-  int best_distance = 256;
   const int lo_level = max(0, nl - 1), hi_level = min(levels - 1, nl + 1);
-  for (int j = 0; j < num_right; ++j) {
+  for (int j = first; j < num_right; j += step) {
     const porta_keypoint kr = right[j];
     if (kr.level < lo_level || kr.level > hi_level) continue;
     const int s = scales->v[kr.level];
@@ -80,13 +77,23 @@ inline int match_left_keypoint(__global const uchar* left_pyramid, __global cons
     if (vr < (long)vl - r || vr > (long)vl + r) continue;
     const long d = (long)ul - match_level0_q8(kr.x, s);
     if (d < min_disparity || d > max_disparity) continue;
-    const int distance = match_hamming(left_descriptor, right_descriptors + (long)j * 8);
-    if (best_j < 0 || distance < best_distance) {
-      best_distance = distance;
-      best_j = j;
-    }
+    const ulong key = ((ulong)match_hamming(left_descriptor, right_descriptors + (long)j * 8) << 32) | (uint)j;
+    best = key < best ? key : best;
   }
-  if (best_j < 0 || best_distance >= max_hamming) return -1;
+  return best;
+}
+
+// Steps c-e for the left keypoint kl and the best candidate `best` of match_scan_right: its SAD
+// (-1: no match) with *disparity and *right_index.
+inline int match_refine(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
+                        const porta_levels* layout, porta_keypoint kl, __global const porta_keypoint* right,
+                        ulong best, const porta_level_ints* scales, int min_disparity, int max_disparity,
+                        int max_hamming, int* disparity, int* right_index) {
+  const int nl = kl.level;
+  if (best == ~0ul || nl >= layout->count) return -1;
+  const int best_j = (int)(best & 0xFFFFFFFFul);
+  const int best_distance = (int)(best >> 32);
+  if (best_distance >= max_hamming) return -1;
 
   // c: SAD search at the left level around the right keypoint's column taken to that level.
   const porta_plane plane = layout->level[nl];
@@ -136,6 +143,19 @@ inline int match_left_keypoint(__global const uchar* left_pyramid, __global cons
   return sads[best_slot];
 }
 
+inline int match_left_keypoint(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
+                               const porta_levels* layout, porta_keypoint kl,
+                               __global const uint* left_descriptor, __global const porta_keypoint* right,
+                               __global const uint* right_descriptors, int num_right,
+                               const porta_level_ints* scales, const porta_level_ints* radius,
+                               int min_disparity, int max_disparity, int max_hamming, int* disparity,
+                               int* right_index) {
+  const ulong best = match_scan_right(layout, kl, left_descriptor, right, right_descriptors, 0, 1, num_right, scales,
+                                      radius, min_disparity, max_disparity);
+  return match_refine(left_pyramid, right_pyramid, layout, kl, right, best, scales, min_disparity, max_disparity,
+                      max_hamming, disparity, right_index);
+}
+
 // DESIGN.md §3.9 step a-e, stereo_match_candidates: one work-item per left list slot; writes matches[i]
 // ({-1, -1} for none) and its SAD (-1 for none) into sads[i], and counts each accepted SAD in the
 // median histogram (atomic increments: the counts do not depend on the order).
@@ -156,6 +176,49 @@ __kernel void stereo_match_candidates(__global const uchar* left_pyramid, __glob
   const int sad = match_left_keypoint(
       left_pyramid, right_pyramid, &layout, left[i], left_descriptors + (long)i * 8, right, right_descriptors,
       num_right, &scales, &radius, min_disparity, max_disparity, max_hamming, &disparity, &right_index);
+  if (sad < 0) {
+    disparity = -1;
+    right_index = -1;
+  } else {
+    atomic_inc(histogram + sad);
+    atomic_inc(histogram + MATCH_HIST_COARSE + (sad >> 8));
+  }
+  matches[2 * i] = disparity;
+  matches[2 * i + 1] = right_index;
+  sads[i] = sad;
+}
+
+// The same for GPUs: one 64-wide work-group per left list slot; the work-items scan the right list
+// with stride 64 and reduce their (distance << 32) | index minima through local memory, then
+// work-item 0 does steps c-e. The same bytes as stereo_match_candidates.
+__kernel __attribute__((reqd_work_group_size(64, 1, 1)))
+void stereo_match_candidates_group(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
+                                   const porta_levels layout, __global const porta_keypoint* left,
+                                   __global const uchar* left_count, const long left_count_offset,
+                                   const int left_capacity, __global const uint* left_descriptors,
+                                   __global const porta_keypoint* right, __global const uchar* right_count,
+                                   const long right_count_offset, const int right_capacity,
+                                   __global const uint* right_descriptors, const porta_level_ints scales,
+                                   const porta_level_ints radius, const int min_disparity,
+                                   const int max_disparity, const int max_hamming, __global int* matches,
+                                   __global int* sads, __global uint* histogram) {
+  __local ulong best[64];
+  const int i = (int)get_group_id(0);
+  const int lid = (int)get_local_id(0);
+  if (i >= match_list_count(left_count, left_count_offset, left_capacity)) return;  // the whole group
+  const int num_right = match_list_count(right_count, right_count_offset, right_capacity);
+  const porta_keypoint kl = left[i];
+  best[lid] = match_scan_right(&layout, kl, left_descriptors + (long)i * 8, right, right_descriptors, lid, 64,
+                               num_right, &scales, &radius, min_disparity, max_disparity);
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int stride = 32; stride > 0; stride >>= 1) {
+    if (lid < stride && best[lid + stride] < best[lid]) best[lid] = best[lid + stride];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid != 0) return;
+  int disparity = -1, right_index = -1;
+  const int sad = match_refine(left_pyramid, right_pyramid, &layout, kl, right, best[0], &scales, min_disparity,
+                               max_disparity, max_hamming, &disparity, &right_index);
   if (sad < 0) {
     disparity = -1;
     right_index = -1;

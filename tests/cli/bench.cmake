@@ -76,6 +76,12 @@ frames/s"
                  ARGS bench ${tiny} --backend cpu --no-peer --profile-kernels)
   porta_cli_test(bench_profile_kernels_takes_no_value EXIT 1 STDERR "option --profile-kernels takes no value"
                  ARGS bench --profile-kernels=yes)
+  if(TARGET porta_backend_opencl)  # PoCL in CI; the value is checked when the backend is made
+    porta_cli_test(bench_opencl_work_groups_bad_value EXIT 1
+                   STDERR "opencl: PORTA_OPENCL_WORK_GROUPS must be on or off, got 'maybe'"
+                   ARGS bench ${tiny} --backend opencl --no-peer)
+    set_tests_properties(cli.bench_opencl_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_WORK_GROUPS=maybe)
+  endif()
   porta_cli_test(bench_frames_zero EXIT 1
                  STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
   porta_cli_test(bench_frames_negative EXIT 1
