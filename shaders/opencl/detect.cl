@@ -64,25 +64,55 @@ __kernel void fast_crf(__global const uchar* pyramid, const porta_levels layout,
 // §3.4 feature culling (DESIGN.md §3.4): one work-item per cell of every level (global: cells of
 // all levels). The maximum response of the cell, scanned row-major with a strict '>' (ties to the
 // smaller row, then column), as a Keypoint; an all-zero record when the maximum is 0.
-__kernel void cull_cells(__global const ushort* responses, const porta_levels response_layout,
-                         const porta_cells cells, __global porta_keypoint* out) {
-  const int cell = (int)get_global_id(0);
-  const int n = porta_locate_cell(&cells, cell);
-  if (n < 0) return;
-  const porta_level_cells grid = cells.level[n];
-  const porta_plane plane = response_layout.level[n];
+// A culling cell: its level, its pixels [x0, x1) x [y0, y1) and its level's response rows.
+typedef struct {
+  int level, x0, y0, x1, y1, pitch;
+  __global const ushort* responses;
+} porta_cell_area;
+
+// Cell `cell` of the cells of every level; area.level < 0 when no level has it.
+inline porta_cell_area porta_locate_cell_area(__global const ushort* responses, const porta_levels* layout,
+                                              const porta_cells* cells, int cell) {
+  porta_cell_area a;
+  a.level = porta_locate_cell(cells, cell);
+  if (a.level < 0) return a;
+  const porta_level_cells grid = cells->level[a.level];
+  const porta_plane plane = layout->level[a.level];
   const int index = cell - grid.first_cell;
   const int cell_y = index / grid.cols;
   const int cell_x = index - cell_y * grid.cols;
-  const int y0 = cell_y * grid.cell_h;
-  const int y1 = min(y0 + grid.cell_h, plane.height);
-  const int x0 = cell_x * grid.cell_w;
-  const int x1 = min(x0 + grid.cell_w, plane.width);
-  __global const ushort* level = (__global const ushort*)((__global const uchar*)responses + plane.offset_bytes);
+  a.y0 = cell_y * grid.cell_h;
+  a.y1 = min(a.y0 + grid.cell_h, plane.height);
+  a.x0 = cell_x * grid.cell_w;
+  a.x1 = min(a.x0 + grid.cell_w, plane.width);
+  a.pitch = plane.pitch;
+  a.responses = (__global const ushort*)((__global const uchar*)responses + plane.offset_bytes);
+  return a;
+}
+
+// The cell's record: the maximum response `best` at (x, y) of level n; all zero when best is 0.
+inline porta_keypoint porta_cell_keypoint(ushort best, int x, int y, int n) {
+  porta_keypoint kp;
+  kp.x = best > 0 ? (ushort)x : (ushort)0;
+  kp.y = best > 0 ? (ushort)y : (ushort)0;
+  kp.response = best;
+  kp.level = best > 0 ? (uchar)n : (uchar)0;
+  kp.angle_bin = 0;
+  return kp;
+}
+
+__kernel void cull_cells(__global const ushort* responses, const porta_levels response_layout,
+                         const porta_cells cells, __global porta_keypoint* out) {
+  const int cell = (int)get_global_id(0);
+  const porta_cell_area a = porta_locate_cell_area(responses, &response_layout, &cells, cell);
+  if (a.level < 0) return;
+  const int n = a.level, x0 = a.x0, x1 = a.x1, y0 = a.y0, y1 = a.y1;
+  __global const ushort* level = a.responses;
+  const int pitch = a.pitch;
   ushort best = 0;
   int best_x = 0, best_y = 0;
   for (int y = y0; y < y1; ++y) {
-    __global const ushort* row = level + (long)y * plane.pitch;
+    __global const ushort* row = level + (long)y * pitch;
     for (int x = x0; x < x1; ++x) {
       const ushort r = row[x];
       if (r > best) {
@@ -92,13 +122,7 @@ __kernel void cull_cells(__global const ushort* responses, const porta_levels re
       }
     }
   }
-  porta_keypoint kp;
-  kp.x = best > 0 ? (ushort)best_x : (ushort)0;
-  kp.y = best > 0 ? (ushort)best_y : (ushort)0;
-  kp.response = best;
-  kp.level = best > 0 ? (uchar)n : (uchar)0;
-  kp.angle_bin = 0;
-  out[cell] = kp;
+  out[cell] = porta_cell_keypoint(best, best_x, best_y, n);
 }
 
 // §3.4 for cells of more than 256 pixels (the backend picks): one 64-wide work-group per cell
@@ -112,23 +136,14 @@ void cull_cells_group(__global const ushort* responses, const porta_levels respo
   __local ulong best[64];
   const int cell = (int)get_group_id(0);
   const int lid = (int)get_local_id(0);
-  const int n = porta_locate_cell(&cells, cell);
-  if (n < 0) return;  // the whole group: `cell` is uniform
-  const porta_level_cells grid = cells.level[n];
-  const porta_plane plane = response_layout.level[n];
-  const int index = cell - grid.first_cell;
-  const int cell_y = index / grid.cols;
-  const int cell_x = index - cell_y * grid.cols;
-  const int y0 = cell_y * grid.cell_h;
-  const int x0 = cell_x * grid.cell_w;
-  const int w = min(x0 + grid.cell_w, plane.width) - x0;
-  const int h = min(y0 + grid.cell_h, plane.height) - y0;
-  __global const ushort* level = (__global const ushort*)((__global const uchar*)responses + plane.offset_bytes);
+  const porta_cell_area a = porta_locate_cell_area(responses, &response_layout, &cells, cell);
+  if (a.level < 0) return;  // the whole group: `cell` is uniform
+  const int w = a.x1 - a.x0, h = a.y1 - a.y0;
   ulong key = 0;
   for (int i = lid; i < w * h; i += 64) {
     const int dy = i / w;
     const int dx = i - dy * w;
-    const ulong r = (ulong)level[(long)(y0 + dy) * plane.pitch + x0 + dx];
+    const ulong r = (ulong)a.responses[(long)(a.y0 + dy) * a.pitch + a.x0 + dx];
     const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
     key = k > key ? k : key;
   }
@@ -142,13 +157,7 @@ void cull_cells_group(__global const ushort* responses, const porta_levels respo
   const ulong k = best[0];
   const ushort r = (ushort)(k >> 32);
   const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
-  porta_keypoint kp;
-  kp.x = r > 0 ? (ushort)(x0 + i % w) : (ushort)0;
-  kp.y = r > 0 ? (ushort)(y0 + i / w) : (ushort)0;
-  kp.response = r;
-  kp.level = r > 0 ? (uchar)n : (uchar)0;
-  kp.angle_bin = 0;
-  out[cell] = kp;
+  out[cell] = r > 0 ? porta_cell_keypoint(r, a.x0 + i % w, a.y0 + i / w, a.level) : porta_cell_keypoint(0, 0, 0, 0);
 }
 
 // PFA helper: the level-0 location index L = Y * width0 + X of a keypoint, X = (x * S[level]) >> 16

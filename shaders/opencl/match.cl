@@ -143,6 +143,19 @@ inline int match_refine(__global const uchar* left_pyramid, __global const uchar
   return sads[best_slot];
 }
 
+// Slot i's result: matches[i] ({-1, -1} for none), sads[i] (-1 for none), and an accepted SAD
+// counted in the median histogram (atomic increments: the counts do not depend on the order).
+inline void match_store(int i, int sad, int disparity, int right_index, __global int* matches, __global int* sads,
+                        __global uint* histogram) {
+  if (sad >= 0) {
+    atomic_inc(histogram + sad);
+    atomic_inc(histogram + MATCH_HIST_COARSE + (sad >> 8));
+  }
+  matches[2 * i] = sad < 0 ? -1 : disparity;
+  matches[2 * i + 1] = sad < 0 ? -1 : right_index;
+  sads[i] = sad;
+}
+
 inline int match_left_keypoint(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
                                const porta_levels* layout, porta_keypoint kl,
                                __global const uint* left_descriptor, __global const porta_keypoint* right,
@@ -176,16 +189,7 @@ __kernel void stereo_match_candidates(__global const uchar* left_pyramid, __glob
   const int sad = match_left_keypoint(
       left_pyramid, right_pyramid, &layout, left[i], left_descriptors + (long)i * 8, right, right_descriptors,
       num_right, &scales, &radius, min_disparity, max_disparity, max_hamming, &disparity, &right_index);
-  if (sad < 0) {
-    disparity = -1;
-    right_index = -1;
-  } else {
-    atomic_inc(histogram + sad);
-    atomic_inc(histogram + MATCH_HIST_COARSE + (sad >> 8));
-  }
-  matches[2 * i] = disparity;
-  matches[2 * i + 1] = right_index;
-  sads[i] = sad;
+  match_store(i, sad, disparity, right_index, matches, sads, histogram);
 }
 
 // The same for GPUs: one 64-wide work-group per left list slot; the work-items scan the right list
@@ -219,16 +223,7 @@ void stereo_match_candidates_group(__global const uchar* left_pyramid, __global 
   int disparity = -1, right_index = -1;
   const int sad = match_refine(left_pyramid, right_pyramid, &layout, kl, right, best[0], &scales, min_disparity,
                                max_disparity, max_hamming, &disparity, &right_index);
-  if (sad < 0) {
-    disparity = -1;
-    right_index = -1;
-  } else {
-    atomic_inc(histogram + sad);
-    atomic_inc(histogram + MATCH_HIST_COARSE + (sad >> 8));
-  }
-  matches[2 * i] = disparity;
-  matches[2 * i + 1] = right_index;
-  sads[i] = sad;
+  match_store(i, sad, disparity, right_index, matches, sads, histogram);
 }
 
 // DESIGN.md §3.9 step f, stereo_match_median: a single work-item; the median is the accepted SAD at index
