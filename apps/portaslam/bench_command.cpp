@@ -23,6 +23,7 @@
 #include "bench_kernels.hpp"
 #include "bench_options.hpp"
 #include "cli_args.hpp"
+#include "porta/json_text.hpp"
 #include "output_paths.hpp"
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
@@ -394,15 +395,6 @@ void print_table(const Report& r) {
   std::printf("%.1f s in all\n", r.seconds);
 }
 
-// A JSON string: std::quoted escapes quotes and backslashes with a backslash, as JSON does; control
-// characters (none are expected in a CPU model, a path or our notes) become spaces.
-std::string json_string(std::string s) {
-  std::replace_if(
-      s.begin(), s.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }, ' ');
-  std::ostringstream out;
-  out << std::quoted(s);
-  return out.str();
-}
 
 void write_json(std::ostream& out, const Report& r) {
   const Machine& m = r.machine;

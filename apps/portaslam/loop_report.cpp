@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "porta/json_text.hpp"
+
 namespace porta::app {
 namespace {
 
@@ -11,15 +13,6 @@ double median_ms(std::vector<std::int64_t> ns) {
   if (ns.empty()) return 0.0;
   std::sort(ns.begin(), ns.end());
   return ns[ns.size() / 2] / 1e6;
-}
-
-std::string json_escape(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out;
 }
 
 }  // namespace
@@ -72,7 +65,7 @@ LoopReport report_loop_closing(const slam::LoopCloser& closer, bool enabled, std
          << ", \"loop_frame\": " << first_frame + e.loop_frame << ", \"keyframe\": " << e.keyframe
          << ", \"loop_keyframe\": " << e.loop_keyframe << ", \"matches\": " << e.matches
          << ", \"inliers\": " << e.inliers << ", \"closed\": " << (e.closed ? "true" : "false")
-         << ", \"rejected\": \"" << json_escape(e.rejected) << "\", \"correction_m\": " << e.correction_m
+         << ", \"rejected\": " << json_string(e.rejected) << ", \"correction_m\": " << e.correction_m
          << ", \"verify_ms\": " << e.verify_ns / 1e6 << ", \"correct_ms\": " << e.correct_ns / 1e6 << "}";
   }
   json << "], \"global_ba\": [";

@@ -6,29 +6,13 @@
 
 #include "cli_args.hpp"
 #include "imageio/png_file.hpp"
+#include "porta/json_text.hpp"
 #include "porta/slam/atomic_file.hpp"
 #include "porta/slam/top_view.hpp"
 
 namespace porta::app {
 
 namespace {
-
-std::string json_string(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof escaped, "\\u%04x", static_cast<unsigned>(c));
-      out += escaped;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
 
 /// The ground truth over the frames the estimate covers, moved into the map's frame by the
 /// inverse of the evaluation's SE(3) alignment (which maps the estimate onto the ground truth).

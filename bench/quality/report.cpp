@@ -6,6 +6,8 @@
 #include <iterator>
 #include <opencv2/core/version.hpp>
 
+#include "porta/json_text.hpp"
+
 namespace porta::quality {
 
 namespace {
@@ -17,23 +19,6 @@ std::string fixed(double v, int digits) {
 }
 std::string percent(double fraction) { return fixed(100.0 * fraction, 1); }
 
-// A JSON string literal: quotes, backslashes and control characters escaped.
-std::string json_string(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buffer[8];
-      std::snprintf(buffer, sizeof buffer, "\\u%04x", static_cast<unsigned>(c));
-      out += buffer;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
 
 // The sets in the order they were measured, each with its pairs.
 std::vector<std::pair<std::string, std::vector<const OxfordPairResult*>>> by_set(

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "porta/slam/eval_report.hpp"
+
+#include "porta/json_text.hpp"
 #include "porta/slam/atomic_file.hpp"
 
 namespace porta::slam {
@@ -41,34 +43,7 @@ class JsonWriter {
   }
 
  private:
-  static std::string quote(const std::string& s) {
-    std::string q = "\"";
-    for (const char c : s) {
-      switch (c) {
-        case '"':
-          q += "\\\"";
-          break;
-        case '\\':
-          q += "\\\\";
-          break;
-        case '\n':
-          q += "\\n";
-          break;
-        case '\t':
-          q += "\\t";
-          break;
-        default:
-          if (static_cast<unsigned char>(c) < 0x20) {
-            char escaped[8];
-            std::snprintf(escaped, sizeof escaped, "\\u%04x", static_cast<unsigned>(c));
-            q += escaped;
-          } else {
-            q += c;
-          }
-      }
-    }
-    return q + "\"";
-  }
+  static std::string quote(const std::string& s) { return json_string(s); }
   static std::string number(double v) {
     if (!std::isfinite(v)) return "null";
     // %.15g when it reads back exactly (shorter, "0.1" not "0.10000000000000001"), else %.17g.
