@@ -3,13 +3,14 @@
 #include "common.glsl"
 #include "list_common.glsl"
 
-// §3.6 orientation (DESIGN.md §3.6, backends/cpu/describe_kernels.cpp): one invocation per list
-// slot, launched over the capacity. Keypoint i gets angle_bin from the moments m10 = sum dx * I,
-// m01 = sum dy * I over the disc |dy| <= 15, |dx| <= umax[|dy|] of its unblurred level: the first
-// bin b with cross(u_b, m) >= 0 > cross(u_{b+1 mod B}, m), bin 0 when none. The other fields are
-// kept. A keypoint the cpu backend refuses (level outside the pyramid, closer than 15 px to the
-// border) is left unchanged. Integer sums: the result does not depend on the order of the adds.
-layout(local_size_x = 64) in;
+// §3.6 orientation (DESIGN.md §3.6, backends/cpu/describe_kernels.cpp): one workgroup of 32 per
+// list slot, launched over the capacity; invocation r < 31 sums row dy = r - 15 of the disc. Keypoint
+// i gets angle_bin from the moments m10 = sum dx * I, m01 = sum dy * I over the disc |dy| <= 15,
+// |dx| <= umax[|dy|] of its unblurred level: the first bin b with cross(u_b, m) >= 0 >
+// cross(u_{b+1 mod B}, m), bin 0 when none. The other fields are kept. A keypoint the cpu backend
+// refuses (level outside the pyramid, closer than 15 px to the border) is left unchanged. Integer
+// sums, reduced through shared memory: the result does not depend on the order of the adds.
+layout(local_size_x = 32) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Pyramid { uint8_t pyramid[]; };
 layout(std430, set = 0, binding = 1) buffer Keypoints { uvec2 keypoints[]; };
@@ -25,9 +26,11 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
 
 #define ORIENT_RADIUS 15
 
+shared int m10_of[32], m01_of[32];
+
 void main() {
-  const uint i = porta_linear_index();
-  if (i >= uint(PORTA_LIST_LENGTH(count_bytes, p.count_offset, p.capacity))) return;
+  const uint i = porta_linear_group();
+  if (i >= uint(PORTA_LIST_LENGTH(count_bytes, p.count_offset, p.capacity))) return;  // the whole group
   const uvec2 kp = keypoints[i];
   const int level = int(kp_level(kp));
   if (level >= p.layout_.count) return;
@@ -36,11 +39,12 @@ void main() {
   if (x < ORIENT_RADIUS || y < ORIENT_RADIUS || x + ORIENT_RADIUS >= plane.width ||
       y + ORIENT_RADIUS >= plane.height)
     return;
-  const int centre = plane.offset_bytes + y * plane.pitch + x;
   // |m| < 2^20 (255 * sum of |dx| over the half disc): int holds both moments.
+  const uint lid = gl_LocalInvocationID.x;
   int m10 = 0, m01 = 0;
-  for (int dy = -ORIENT_RADIUS; dy <= ORIENT_RADIUS; ++dy) {
-    const int row = centre + dy * plane.pitch;
+  if (lid < 2u * ORIENT_RADIUS + 1u) {
+    const int dy = int(lid) - ORIENT_RADIUS;
+    const int row = plane.offset_bytes + (y + dy) * plane.pitch + x;
     const int half_width = p.umax[abs(dy)];
     int row_sum = 0;
     for (int dx = -half_width; dx <= half_width; ++dx) {
@@ -48,8 +52,21 @@ void main() {
       row_sum += v;
       m10 += dx * v;
     }
-    m01 += dy * row_sum;
+    m01 = dy * row_sum;
   }
+  m10_of[lid] = m10;
+  m01_of[lid] = m01;
+  barrier();
+  for (uint stride = 16u; stride > 0u; stride >>= 1) {
+    if (lid < stride) {
+      m10_of[lid] += m10_of[lid + stride];
+      m01_of[lid] += m01_of[lid + stride];
+    }
+    barrier();
+  }
+  if (lid != 0u) return;
+  m10 = m10_of[0];
+  m01 = m01_of[0];
   // cross(u, m) = u.x * m01 - u.y * m10 (contract_math.hpp orientation_cross; |u| <= 1024: int32).
   int bin = 0;
   for (int b = 0; b < p.bins; ++b) {
