@@ -36,7 +36,8 @@ static_assert(sizeof(OrientParams) <= kMaxParamsBytes);
 
 }  // namespace
 
-// §3.6: one workgroup of 32 per list slot (a row of the disc each), reduced in shared memory.
+// §3.6: one workgroup of 32 per list slot (a row of the disc each), reduced in shared memory; on a
+// CPU device one invocation per slot (orient_per_item.comp). The same bytes.
 void VulkanBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
                            const std::array<int, 16>& umax, const Buffer& boundaries, int bins) {
   checks::check_orient_tables(kBackend, umax, boundaries, bins);
@@ -50,8 +51,13 @@ void VulkanBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, D
   p.capacity = capacity;
   p.count_offset = static_cast<std::uint32_t>(keypoints.count_offset_bytes);
   p.bins = bins;
-  rt().dispatch("orient", {&pyramid, keypoints.items, keypoints.count, &boundaries}, p,
-                Work::groups(static_cast<std::uint64_t>(capacity)));
+  if (work_groups()) {
+    rt().dispatch("orient", {&pyramid, keypoints.items, keypoints.count, &boundaries}, p,
+                  Work::groups(static_cast<std::uint64_t>(capacity)));
+  } else {
+    rt().dispatch("orient_per_item", {&pyramid, keypoints.items, keypoints.count, &boundaries}, p,
+                  Work::items(static_cast<std::uint64_t>(capacity)));
+  }
 }
 
 // §3.8: one invocation per (list slot, 32-bit word of its descriptor).

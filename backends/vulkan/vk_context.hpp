@@ -98,6 +98,9 @@ class Context {
   VkQueue queue() const { return queue_; }
   std::uint32_t queue_family() const { return queue_family_; }
   const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
+  /// The device is a CPU (lavapipe): kernels with a workgroup per item cost more than they save
+  /// there. $PORTA_VULKAN_WORK_GROUPS=on or off overrides (work_groups()).
+  bool cpu_device() const { return properties_.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU; }
   const DeviceEntry& entry() const { return entry_; }
   bool validation() const { return messenger_ != VK_NULL_HANDLE; }
 

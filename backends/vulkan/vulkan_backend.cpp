@@ -1,11 +1,22 @@
 #include "vulkan/vulkan_backend.hpp"
 
+#include <cstdlib>
+#include <string>
+
 #include "vulkan/vk_context.hpp"
 #include "vulkan/vk_runtime.hpp"
 
 namespace porta::vulkan {
 
-VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make_shared<Runtime>(options)) {}
+VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make_shared<Runtime>(options)) {
+  work_groups_ = !runtime_->context().cpu_device();
+  if (const char* env = std::getenv("PORTA_VULKAN_WORK_GROUPS"); env != nullptr && *env != '\0') {
+    const std::string value = env;
+    if (value != "on" && value != "off")
+      throw BackendError("vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got '" + value + "'");
+    work_groups_ = value == "on";
+  }
+}
 
 VulkanBackend::~VulkanBackend() {
   scratch_.clear();

@@ -95,9 +95,15 @@ class VulkanBackend final : public Backend {
   /// Device memory that lives as long as the backend, grown on demand (never shrunk); the
   /// contents are unspecified after growth (zero when first made).
   Buffer& scratch(const std::string& name, std::size_t bytes);
+  /// Kernels with a workgroup per item (orient.comp) rather than an invocation per item
+  /// (orient_per_item.comp): on GPUs, not on a CPU device (lavapipe), where they are slower.
+  /// $PORTA_VULKAN_WORK_GROUPS=on or off overrides (the equivalence suite runs both on lavapipe).
+  /// The bytes are the same either way.
+  bool work_groups() const { return work_groups_; }
 
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
+  bool work_groups_ = true;
   std::map<std::string, std::unique_ptr<Buffer>> scratch_;
 };
 

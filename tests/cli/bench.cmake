@@ -82,6 +82,12 @@ frames/s"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_WORK_GROUPS=maybe)
   endif()
+  if(TARGET porta_backend_vulkan)  # lavapipe in CI
+    porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got 'yes'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_WORK_GROUPS=yes)
+  endif()
   porta_cli_test(bench_frames_zero EXIT 1
                  STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
   porta_cli_test(bench_frames_negative EXIT 1
