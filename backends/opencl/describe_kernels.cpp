@@ -42,7 +42,10 @@ void OpenClBackend::orient(const Buffer& pyramid, const PyramidLayout& layout, D
   check_count_offset("orient", list);
   const int capacity = usable_capacity(list, sizeof(Keypoint));
   if (capacity == 0) return;
-  launch("describe", "orient", Range::linear(static_cast<std::size_t>(capacity)), pyramid, to_cl(layout),
+  // GPUs: a 32-wide work-group per slot (orient_group); CPU devices: a work-item. The same bytes.
+  const auto slots = static_cast<std::size_t>(capacity);
+  launch("describe", work_groups() ? "orient_group" : "orient",
+         work_groups() ? Range::linear(slots * 32, 32) : Range::linear(slots), pyramid, to_cl(layout),
          *keypoints.items, *keypoints.count, static_cast<cl_long>(keypoints.count_offset_bytes),
          static_cast<cl_int>(capacity), u, boundaries, static_cast<cl_int>(bins));
 }
