@@ -11,6 +11,11 @@
 # Results in OUT_DIR: report.md (machine, the frame times, the per-kernel tables), frames-*.txt and
 # .json (portaslam bench without profiling), kernels-*.txt and .json (with it), backends.txt,
 # machine.txt, build.log. Exit status: 0 when the build and every bench run succeeded.
+# The frame times are taken one frame at a time and with 4 frames in flight, with the input copied
+# by the host and in pinned input images (PORTA_PROFILE_BENCH_ARGS, default "--in-flight 1,4 --input
+# copy,pinned"), and once more for vulkan and opencl with one queue (PORTA_VULKAN_QUEUES=1,
+# PORTA_OPENCL_QUEUES=1: every call in order, results downloaded after the frame), the way they ran
+# before they had queues (frames-*-one-queue.txt).
 # Environment: PORTA_PROFILE_FRAMES (timed frames per cell, default 200; warm-up 20),
 # PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
 # PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh).
@@ -20,6 +25,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 mkdir -p "${1:-gpu-kernel-profile}" && out_dir="$(cd "${1:-gpu-kernel-profile}" && pwd)" || exit 1
 build_dir="${PORTA_PROFILE_BUILD_DIR:-build-gpu-bench}"
 frames="${PORTA_PROFILE_FRAMES:-200}"
+read -r -a bench_args <<<"${PORTA_PROFILE_BENCH_ARGS:---in-flight 1,4 --input copy,pinned}"
 say() { echo "gpu-kernel-profile.sh: $*"; }
 # shellcheck source=ci/gpu-common.sh
 source ci/gpu-common.sh
@@ -45,9 +51,13 @@ for cell in "${cells[@]}"; do
   read -r size levels modes <<<"${cell#*:}"
   common=(--resolutions "$size" --levels "$levels" --modes "$modes" --frames "$frames" --warmup 20 --no-peer)
   say "cell $name: frame times on $all"
-  "$binary" bench --backend "$all" "${common[@]}" --json "$out_dir/frames-$name.json" \
+  "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name.json" \
     >"$out_dir/frames-$name.txt" 2>>"$out_dir/bench.log" || status=1
   if [ -n "$timed" ]; then
+    say "cell $name: $timed with one queue"
+    PORTA_VULKAN_QUEUES=1 PORTA_OPENCL_QUEUES=1 "$binary" bench --backend "$timed" "${common[@]}" \
+      --json "$out_dir/frames-$name-one-queue.json" >"$out_dir/frames-$name-one-queue.txt" \
+      2>>"$out_dir/bench.log" || status=1
     say "cell $name: per-kernel device time on $timed"
     "$binary" bench --backend "$timed" "${common[@]}" --profile-kernels --json "$out_dir/kernels-$name.json" \
       >"$out_dir/kernels-$name.txt" 2>>"$out_dir/bench.log" || status=1
@@ -67,6 +77,8 @@ done
     echo
     echo '```'
     cat "$out_dir/frames-$name.txt" 2>/dev/null
+    echo "one queue:"
+    grep -E '^(vulkan|opencl) ' "$out_dir/frames-$name-one-queue.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name.txt" 2>/dev/null
     echo '```'
   done

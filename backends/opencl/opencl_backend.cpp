@@ -121,10 +121,21 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
                                          reinterpret_cast<cl_context_properties>(device_.platform), 0};
   context_ = clCreateContext(props, 1, &device_.device, nullptr, nullptr, &err);
   check(err, "clCreateContext", device_.label());
-  // Profiling is a property of the queue (every OpenCL device supports it).
-  queue_ = clCreateCommandQueue(context_, device_.device, options.profile_kernels ? CL_QUEUE_PROFILING_ENABLE : 0,
-                                &err);
-  check(err, "clCreateCommandQueue", device_.label());
+  queue_count_ = kQueues;
+  if (const char* env = std::getenv("PORTA_OPENCL_QUEUES"); env != nullptr && *env != '\0') {
+    char* end = nullptr;
+    const long n = std::strtol(env, &end, 10);
+    if (end == env || *end != '\0' || n < 1 || n > kQueues)
+      throw BackendError("opencl: PORTA_OPENCL_QUEUES must be a queue count from 1 to " + std::to_string(kQueues) +
+                         ", got '" + env + "'");
+    queue_count_ = static_cast<int>(n);
+  }
+  // In-order queues; profiling is a property of the queue (every OpenCL device supports it).
+  for (int q = 0; q < queue_count_; ++q) {
+    queues_[static_cast<std::size_t>(q)] = clCreateCommandQueue(
+        context_, device_.device, options.profile_kernels ? CL_QUEUE_PROFILING_ENABLE : 0, &err);
+    check(err, "clCreateCommandQueue", device_.label());
+  }
   profile_kernels_ = options.profile_kernels;
   work_groups_ = device_.is_gpu;
   if (const char* env = std::getenv("PORTA_OPENCL_WORK_GROUPS"); env != nullptr && *env != '\0') {
@@ -136,11 +147,14 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
 }
 
 OpenClBackend::~OpenClBackend() {
-  for (auto& [name, event] : timed_) clReleaseEvent(event);
+  for (cl_command_queue q : queues_)
+    if (q) clFinish(q);  // work in flight writes into memory about to go
+  for (auto& t : timed_) clReleaseEvent(t.event);
   scratch_.clear();
   for (auto& [name, k] : kernels_) clReleaseKernel(k);
   for (auto& [name, p] : programs_) clReleaseProgram(p);
-  if (queue_) clReleaseCommandQueue(queue_);
+  for (cl_command_queue q : queues_)
+    if (q) clReleaseCommandQueue(q);
   if (context_) clReleaseContext(context_);
 }
 
@@ -229,97 +243,6 @@ void OpenClBackend::set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint in
                                 const void* value) {
   check(clSetKernelArg(k, index, size, value), "clSetKernelArg",
         std::string(kernel_name) + " argument " + std::to_string(index));
-}
-
-void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& range) {
-  std::size_t global[2] = {range.global[0], range.global[1]};
-  if (global[0] == 0 || (range.dims == 2 && global[1] == 0)) return;
-  const bool has_local = range.local[0] != 0;
-  if (has_local) {
-    for (int d = 0; d < range.dims; ++d) {
-      const std::size_t l = range.local[d] ? range.local[d] : 1;
-      global[d] = (global[d] + l - 1) / l * l;
-    }
-  }
-  std::size_t local[2] = {range.local[0], range.local[1] ? range.local[1] : 1};
-  cl_event event = nullptr;
-  check(clEnqueueNDRangeKernel(queue_, k, static_cast<cl_uint>(range.dims), nullptr, global,
-                               has_local ? local : nullptr, 0, nullptr, profile_kernels_ ? &event : nullptr),
-        "clEnqueueNDRangeKernel", kernel_name);
-  if (event != nullptr) timed_.emplace_back(kernel_name, event);
-}
-
-void OpenClBackend::read_timed_events() {
-  std::vector<std::pair<std::string, cl_event>> timed = std::move(timed_);
-  timed_.clear();
-  std::string failure;
-  for (auto& [name, event] : timed) {
-    cl_ulong start = 0, end = 0;
-    const cl_int a = clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_START, sizeof(start), &start, nullptr);
-    const cl_int b = clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_END, sizeof(end), &end, nullptr);
-    clReleaseEvent(event);
-    if (a != CL_SUCCESS || b != CL_SUCCESS) {
-      if (failure.empty()) failure = name;
-      continue;
-    }
-    profile_.add(name, end >= start ? static_cast<double>(end - start) * 1e-6 : 0.0);
-  }
-  if (!failure.empty()) check(CL_PROFILING_INFO_NOT_AVAILABLE, "clGetEventProfilingInfo", failure);
-}
-
-std::vector<KernelTime> OpenClBackend::kernel_times(bool reset) {
-  synchronize();
-  return profile_.take(reset);
-}
-
-std::unique_ptr<Buffer> OpenClBackend::allocate(std::size_t bytes) {
-  cl_int err = CL_SUCCESS;
-  cl_mem m = clCreateBuffer(context_, CL_MEM_READ_WRITE, bytes > 0 ? bytes : 1, nullptr, &err);
-  check(err, "clCreateBuffer", std::to_string(bytes) + " bytes");
-  auto buffer = std::make_unique<OpenClBuffer>(m, bytes);
-  fill(*buffer, 0, bytes, 0);
-  return buffer;
-}
-
-namespace {
-void check_range(const Buffer& b, std::size_t offset, std::size_t bytes, const char* call) {
-  if (offset > b.size_bytes() || bytes > b.size_bytes() - offset)
-    throw BackendError(std::string("opencl: ") + call + ": range [" + std::to_string(offset) + ", +" +
-                       std::to_string(bytes) + ") is outside the buffer of " + std::to_string(b.size_bytes()) +
-                       " bytes");
-}
-}  // namespace
-
-void OpenClBackend::upload(Buffer& dst, std::size_t dst_offset, const void* src, std::size_t bytes) {
-  check_range(dst, dst_offset, bytes, "upload");
-  if (bytes == 0) return;
-  check(clEnqueueWriteBuffer(queue_, mem_of(dst), CL_TRUE, dst_offset, bytes, src, 0, nullptr, nullptr),
-        "clEnqueueWriteBuffer");
-}
-
-void OpenClBackend::download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) {
-  check_range(src, src_offset, bytes, "download");
-  if (bytes == 0) return;
-  check(clEnqueueReadBuffer(queue_, mem_of(src), CL_TRUE, src_offset, bytes, dst, 0, nullptr, nullptr),
-        "clEnqueueReadBuffer");
-}
-
-void OpenClBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) {
-  check_range(dst, offset, bytes, "fill");
-  if (bytes == 0) return;
-  check(clEnqueueFillBuffer(queue_, mem_of(dst), &value, 1, offset, bytes, 0, nullptr, nullptr),
-        "clEnqueueFillBuffer");
-}
-
-void OpenClBackend::synchronize() {
-  check(clFinish(queue_), "clFinish");
-  read_timed_events();  // complete now; their events are not kept past a synchronize
-}
-
-Buffer& OpenClBackend::scratch(const std::string& name, std::size_t bytes) {
-  auto& slot = scratch_[name];
-  if (!slot || slot->size_bytes() < bytes) slot = allocate(bytes);
-  return *slot;
 }
 
 }  // namespace porta::opencl

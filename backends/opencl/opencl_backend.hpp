@@ -1,12 +1,16 @@
-// The OpenCL backend (OpenCL 1.2): one context and in-order queue on one device; each source of
+// The OpenCL backend (OpenCL 1.2): one context on one device with kQueues in-order command queues
+// (the HAL's queues: queue_wait() is a marker event one queue's barrier waits for; asynchronous
+// transfers are non-blocking reads and writes from pinned, mapped host buffers); each source of
 // shaders/opencl (with common.cl in front) is one program, built on first use from the embedded
 // text or loaded from the on-disk binary cache; the kernel contracts of DESIGN.md §3 are
-// dispatched from *_kernels.cpp.
+// dispatched from *_kernels.cpp. Queues, memory and transfers are in cl_queues.cpp.
 #pragma once
 
 #include <CL/cl.h>
 
+#include <array>
 #include <map>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -67,7 +71,22 @@ class OpenClBackend final : public Backend {
   void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) override;
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
   void synchronize() override;
+  void flush() override;
   std::vector<KernelTime> kernel_times(bool reset) override;
+
+  static constexpr int kQueues = 8;
+  /// kQueues, or $PORTA_OPENCL_QUEUES (1 to kQueues).
+  int queue_count() const override { return queue_count_; }
+  void use_queue(int queue) override;
+  void queue_wait(int other) override;
+  void finish_queue(int queue) override;
+  /// Pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped for its whole life).
+  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes) override;
+  /// Non-blocking writes and reads on the current queue.
+  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                    std::size_t bytes) override;
+  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
+                      std::size_t bytes) override;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 
@@ -83,9 +102,11 @@ class OpenClBackend final : public Backend {
     (set_arg(k, kernel_name, index++, args), ...);
     enqueue(k, kernel_name, range);
   }
-  /// Scratch device memory that lives as long as the backend, grown on demand (never shrunk).
+  /// Scratch device memory that lives as long as the backend, grown on demand (never shrunk); one
+  /// per queue: queues never share scratch memory.
   Buffer& scratch(const std::string& name, std::size_t bytes);
-  cl_command_queue queue() const { return queue_; }
+  /// The current queue.
+  cl_command_queue queue() const { return queues_[static_cast<std::size_t>(current_)]; }
   /// Kernels with a work-group per item (cull_cells_group, stereo_match_candidates_group) instead
   /// of a work-item: on a GPU, where they pay; a CPU device (PoCL) runs work-items as loops, and
   /// there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
@@ -105,20 +126,29 @@ class OpenClBackend final : public Backend {
   }
   void set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint index, std::size_t size, const void* value);
   void enqueue(cl_kernel k, const char* kernel_name, const Range& range);
-  /// Adds the finished timed dispatches to profile_ and releases their events.
-  void read_timed_events();
+  /// Adds the timed dispatches of `queue` (every queue when -1), which have finished, to profile_
+  /// and releases their events.
+  void read_timed_events(int queue);
+  void finish_all();
   cl_program program(const char* name);
   cl_program build_program(const std::string& name, const std::string& source);
 
   DeviceEntry device_;
   cl_context context_ = nullptr;
-  cl_command_queue queue_ = nullptr;
+  std::array<cl_command_queue, kQueues> queues_{};
+  int queue_count_ = 1;
+  int current_ = 0;
   std::map<std::string, cl_program> programs_;
   std::map<std::string, cl_kernel> kernels_;
-  std::map<std::string, std::unique_ptr<Buffer>> scratch_;
+  std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
   bool profile_kernels_ = false;
   bool work_groups_ = false;
-  std::vector<std::pair<std::string, cl_event>> timed_;  ///< dispatches since the last synchronize
+  struct TimedDispatch {
+    int queue;
+    std::string kernel;
+    cl_event event;
+  };
+  std::vector<TimedDispatch> timed_;  ///< dispatches whose queue has not been finished since
   KernelProfile profile_;
 };
 

@@ -357,11 +357,18 @@ Context::Context(const BackendOptions& options) {
     // ---- Logical device ----
     const Requirements req = check_requirements(physical_, instance.api_version);
     queue_family_ = static_cast<std::uint32_t>(compute_family(physical_));
-    const float priority = 1.0f;
+    // Up to kMaxDeviceQueues queues of that family: the runtime's streams are spread over them.
+    std::uint32_t families = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, nullptr);
+    std::vector<VkQueueFamilyProperties> family_props(families);
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, family_props.data());
+    const std::uint32_t queue_count =
+        std::clamp<std::uint32_t>(family_props[queue_family_].queueCount, 1, kMaxDeviceQueues);
+    const std::vector<float> priorities(queue_count, 1.0f);
     auto queue_info = make_info<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
     queue_info.queueFamilyIndex = queue_family_;
-    queue_info.queueCount = 1;
-    queue_info.pQueuePriorities = &priority;
+    queue_info.queueCount = queue_count;
+    queue_info.pQueuePriorities = priorities.data();
 
     auto s8 = make_info<VkPhysicalDevice8BitStorageFeatures>(
         VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_8BIT_STORAGE_FEATURES);
@@ -385,7 +392,8 @@ Context::Context(const BackendOptions& options) {
     info.enabledExtensionCount = static_cast<std::uint32_t>(extensions.size());
     info.ppEnabledExtensionNames = extensions.data();
     check(vkCreateDevice(physical_, &info, nullptr, &device_), "vkCreateDevice", entry_.label());
-    vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+    queues_.resize(queue_count);
+    for (std::uint32_t i = 0; i < queue_count; ++i) vkGetDeviceQueue(device_, queue_family_, i, &queues_[i]);
     throw_validation_errors("device creation");
   } catch (...) {
     if (device_ != VK_NULL_HANDLE) vkDestroyDevice(device_, nullptr);

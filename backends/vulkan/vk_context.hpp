@@ -16,6 +16,9 @@
 
 namespace porta::vulkan {
 
+/// Most queues the logical device is created with (fewer where the compute family has fewer).
+inline constexpr std::uint32_t kMaxDeviceQueues = 8;
+
 /// A Vulkan info struct with its sType set and every other member zero.
 template <typename T>
 T make_info(VkStructureType type) {
@@ -87,7 +90,7 @@ class Context {
  public:
   /// Creates the instance, selects the device (BackendOptions::device, else $PORTA_VULKAN_DEVICE,
   /// else the first discrete, integrated, virtual, then cpu device that has what the kernels need)
-  /// and creates the logical device with one compute queue.
+  /// and creates the logical device with up to kMaxDeviceQueues queues of one compute family.
   explicit Context(const BackendOptions& options);
   ~Context();
   Context(const Context&) = delete;
@@ -95,7 +98,8 @@ class Context {
 
   VkDevice device() const { return device_; }
   VkPhysicalDevice physical() const { return physical_; }
-  VkQueue queue() const { return queue_; }
+  /// The device's compute queues (at least one, at most kMaxDeviceQueues; one family).
+  const std::vector<VkQueue>& queues() const { return queues_; }
   std::uint32_t queue_family() const { return queue_family_; }
   const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
   /// The device is a CPU (lavapipe): kernels with a workgroup per item cost more than they save
@@ -120,7 +124,7 @@ class Context {
   VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
   VkPhysicalDevice physical_ = VK_NULL_HANDLE;
   VkDevice device_ = VK_NULL_HANDLE;
-  VkQueue queue_ = VK_NULL_HANDLE;
+  std::vector<VkQueue> queues_;
   std::uint32_t queue_family_ = 0;
   VkPhysicalDeviceProperties properties_{};
   VkPhysicalDeviceMemoryProperties memory_{};

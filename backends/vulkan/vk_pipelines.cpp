@@ -254,8 +254,8 @@ VkDescriptorSet Runtime::descriptor_set(const Kernel& k, const std::vector<const
   return entry.set;
 }
 
-void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*> buffers, const void* params,
-                           std::uint32_t params_bytes, Work work) {
+bool Runtime::make_dispatch(const char* name, std::initializer_list<const Buffer*> buffers,
+                            std::uint32_t params_bytes, Work work, Command& c) {
   Kernel& k = kernel(name, params_bytes);
   const std::string where = std::string("vulkan: ") + name + ": ";
   if (buffers.size() != k.bindings)
@@ -271,13 +271,13 @@ void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*
       if (work.kind == Work::Kind::kItems && (k.local[1] != 1 || k.local[2] != 1))
         throw BackendError(where + "Work::items needs a local size of (X, 1, 1)");
       const std::uint64_t groups = work.kind == Work::Kind::kItems ? ceil_div(work.x, k.local[0]) : work.x;
-      if (groups == 0) return;
+      if (groups == 0) return false;
       gx = std::min<std::uint64_t>(groups, limit[0]);
       gy = ceil_div(groups, gx);
       break;
     }
     case Work::Kind::kGrid:
-      if (work.x == 0 || work.y == 0) return;
+      if (work.x == 0 || work.y == 0) return false;
       gx = ceil_div(work.x, k.local[0]);
       gy = ceil_div(work.y, k.local[1]);
       break;
@@ -294,30 +294,13 @@ void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*
     bound.push_back(&vk(*b, name));
   }
 
-  Command c;
   c.kind = Command::Kind::kDispatch;
   c.kernel = &k;
   c.set = descriptor_set(k, bound);
   for (const VulkanBuffer* b : bound) c.ids.push_back(b->memory().id);
-  if (k.params_buffer) {
-    const VkDeviceSize align = std::max<VkDeviceSize>(16, ctx_->limits().minStorageBufferOffsetAlignment);
-    VkDeviceSize at = (params_used_ + align - 1) / align * align;
-    if (at + kMaxParamsBytes > params_.size) {  // this batch used the whole parameter area
-      flush();
-      at = 0;
-    }
-    std::memcpy(static_cast<std::uint8_t*>(params_.mapped) + at, params, params_bytes);
-    c.params_offset = static_cast<std::uint32_t>(at);
-    params_used_ = at + params_bytes;
-  } else if (k.push) {
-    std::memcpy(c.push.data(), params, params_bytes);
-    c.push_bytes = (params_bytes + 3) / 4 * 4;
-  }
   c.groups[0] = static_cast<std::uint32_t>(gx);
   c.groups[1] = static_cast<std::uint32_t>(gy);
-  for (const std::uint64_t id : c.ids) note_use(id);
-  pending_.push_back(std::move(c));
-  pending_dispatch_ = true;
+  return true;
 }
 
 }  // namespace porta::vulkan

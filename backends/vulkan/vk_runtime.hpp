@@ -52,7 +52,7 @@ struct DeviceMemory {
 };
 
 /// A Buffer of the Vulkan backend. Its memory is handed back to the runtime on destruction and
-/// freed once no pending command uses it.
+/// freed once no pending or running command uses it.
 class VulkanBuffer final : public Buffer {
  public:
   VulkanBuffer(std::shared_ptr<Runtime> runtime, DeviceMemory memory, std::size_t bytes);
@@ -65,8 +65,25 @@ class VulkanBuffer final : public Buffer {
   DeviceMemory memory_;
 };
 
+/// A HostBuffer of the Vulkan backend (Backend::allocate_host): host-visible, coherent memory,
+/// mapped for its whole life, that the device copies to and from in the queue's own batch.
+class VulkanHostBuffer final : public HostBuffer {
+ public:
+  VulkanHostBuffer(std::shared_ptr<Runtime> runtime, DeviceMemory memory, std::size_t bytes);
+  ~VulkanHostBuffer() override;
+  const DeviceMemory& memory() const { return memory_; }
+  const Runtime* owner() const { return runtime_.get(); }
+
+ private:
+  std::shared_ptr<Runtime> runtime_;
+  DeviceMemory memory_;
+};
+
 class Runtime : public std::enable_shared_from_this<Runtime> {
  public:
+  /// The HAL queues (Backend::queue_count()): streams of batches, spread over the device's queues.
+  static constexpr int kStreams = 8;
+
   explicit Runtime(const BackendOptions& options);
   ~Runtime();
   Runtime(const Runtime&) = delete;
@@ -75,19 +92,36 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   Context& context() { return *ctx_; }
   const VulkanStats& stats() const { return stats_; }
 
-  // ---- memory (Backend semantics: asynchronous until flush) ----
+  // ---- memory (Backend semantics: asynchronous until a wait) ----
   std::unique_ptr<Buffer> allocate(std::size_t bytes);
   void upload(Buffer& dst, std::size_t offset, const void* src, std::size_t bytes);
+  /// Waits for every stream, then copies.
   void download(const Buffer& src, std::size_t offset, void* dst, std::size_t bytes);
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value);
-  /// Submits the pending batch (if any) and waits for it.
+  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes);
+  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                    std::size_t bytes);
+  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
+                      std::size_t bytes);
+
+  // ---- streams (vk_streams.cpp; the HAL's queues) ----
+  int current_stream() const { return current_; }
+  void use_stream(int stream) { current_ = stream; }
+  /// Later work on the current stream waits for what `other` has been given so far: its pending
+  /// batch is submitted with a semaphore the current stream's next submit waits on.
+  void stream_wait(int other);
+  /// Submits the stream's pending batch (if any) and waits for it.
+  void finish_stream(int stream);
+  /// Submits every stream's pending batch without waiting (Backend::flush).
+  void start();
+  /// Submits every pending batch and waits for all of them.
   void flush();
   /// Backend::kernel_times: flushes, then the totals of the timed dispatches.
   std::vector<KernelTime> kernel_times(bool reset);
 
   /// Records a dispatch of `kernel` (a shader of shaders/vulkan) binding `buffers` to set 0,
   /// bindings 0..N-1, with `params` as push constants or in the parameter buffer (whichever the
-  /// shader declares). Nothing is recorded when `work` is empty.
+  /// shader declares), on the current stream. Nothing is recorded when `work` is empty.
   template <typename Params>
   void dispatch(const char* kernel, std::initializer_list<const Buffer*> buffers, const Params& params,
                 Work work) {
@@ -97,7 +131,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void dispatch_raw(const char* kernel, std::initializer_list<const Buffer*> buffers, const void* params,
                     std::uint32_t params_bytes, Work work);
 
-  /// Called by ~VulkanBuffer.
+  /// Called by ~VulkanBuffer and ~VulkanHostBuffer.
   void retire(DeviceMemory memory) noexcept;
 
  private:
@@ -114,7 +148,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     Unique<VkPipelineLayout> layout;
     Unique<VkPipeline> pipeline;
   };
-  /// One recorded-to-be command of the pending batch.
+  /// One recorded-to-be command of a pending batch.
   struct Command {
     enum class Kind : std::uint8_t { kDispatch, kCopy, kFill };
     Kind kind = Kind::kDispatch;
@@ -122,7 +156,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     // kDispatch
     const Kernel* kernel = nullptr;
     VkDescriptorSet set = VK_NULL_HANDLE;
-    std::uint32_t params_offset = 0;  ///< dynamic offset into the parameter buffer
+    std::uint32_t params_offset = 0;  ///< dynamic offset into the stream's parameter buffer
     std::uint32_t push_bytes = 0;
     std::array<std::uint32_t, kMaxPushBytes / 4> push{};
     std::uint32_t groups[3] = {1, 1, 1};
@@ -141,28 +175,77 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     std::uint64_t last_use = 0;
   };
+  /// One HAL queue. Commands are recorded into `pending`; a submit moves them to the device as one
+  /// batch, of which a stream has at most one running: recording into a stream whose batch runs
+  /// waits for it first, so the batch's staging, parameters and command buffer are free again.
+  struct Stream {
+    VkQueue queue = VK_NULL_HANDLE;
+    std::vector<Command> pending;
+    std::vector<std::uint64_t> pending_ids;
+    bool pending_dispatch = false;
+    std::vector<VkSemaphore> waits;  ///< the next submit waits for these (stream_wait)
+    // Parameter buffer: a per-batch bump allocator over host-visible memory.
+    DeviceMemory params;
+    VkDescriptorSet params_set = VK_NULL_HANDLE;
+    VkDeviceSize params_used = 0;
+    // Staging: a per-batch bump allocator, grown on demand.
+    DeviceMemory staging;
+    VkDeviceSize staging_used = 0;
+    Unique<VkFence> fence;
+    VkCommandBuffer transfer_cmd = VK_NULL_HANDLE;  // for batches of copies and fills only
+    std::vector<CachedBatch> cache;
+    Unique<VkQueryPool> timestamps;  ///< BackendOptions::profile_kernels
+    // The running batch, until its fence has been waited for.
+    bool running = false;
+    std::vector<std::uint64_t> running_ids;
+    std::vector<const Kernel*> running_timed;   ///< its timed dispatches, in order
+    std::vector<VkSemaphore> running_waits;     ///< free again once it has run
+  };
 
   DeviceMemory make_memory(VkDeviceSize bytes, bool host);
   const VulkanBuffer& vk(const Buffer& b, const char* call) const;
-  bool pending_uses(std::uint64_t id) const;
-  void note_use(std::uint64_t id);
+  const VulkanHostBuffer& vk_host(const HostBuffer& b, const char* call) const;
+  /// True while a pending or running batch of any stream uses the memory.
+  bool in_use(std::uint64_t id) const;
   void destroy_now(DeviceMemory memory);
   void collect_garbage();
-  /// A slice of the staging buffer for `bytes` bytes in this batch (flushes or grows as needed).
-  VkDeviceSize reserve_staging(VkDeviceSize bytes);
-  void record_copy(const DeviceMemory& src, VkDeviceSize src_offset, const DeviceMemory& dst,
+
+  // Streams (vk_streams.cpp).
+  void create_streams(bool profile_kernels);
+  Stream& current() { return streams_[static_cast<std::size_t>(current_)]; }
+  /// Before anything is recorded into `s`: waits for its running batch when nothing is pending.
+  void begin_record(Stream& s);
+  void note_use(Stream& s, std::uint64_t id);
+  void push_command(Stream& s, Command c);
+  /// Submits the pending batch (and waits) with `signal` signalled when it has run.
+  void submit(Stream& s, VkSemaphore signal);
+  /// Waits for the running batch, reads its timestamps and frees what it held.
+  void complete(Stream& s);
+  /// Drops the pending batch (after a failed submit; its commands never ran).
+  void drop_pending(Stream& s);
+  VkSemaphore take_semaphore();
+  VkCommandBuffer command_buffer_for(Stream& s);
+  void record(const Stream& s, VkCommandBuffer cmd, bool one_time);
+  std::vector<std::uint64_t> signature(const Stream& s) const;
+  /// BackendOptions::profile_kernels: the stream's timestamp query pool, or a BackendError when the
+  /// queue cannot write timestamps.
+  Unique<VkQueryPool> create_timestamp_pool();
+  /// After a batch's fence: adds its dispatches' timestamps to profile_.
+  void read_timestamps(Stream& s);
+
+  /// A slice of the stream's staging buffer for `bytes` bytes in this batch (finishes the stream
+  /// or grows the buffer as needed).
+  VkDeviceSize reserve_staging(Stream& s, VkDeviceSize bytes);
+  void record_copy(Stream& s, const DeviceMemory& src, VkDeviceSize src_offset, const DeviceMemory& dst,
                    VkDeviceSize dst_offset, VkDeviceSize bytes);
   Kernel& kernel(const char* name, std::uint32_t params_bytes);
+  /// The dispatch command of a kernel call, checked against the shader (vk_pipelines.cpp); its
+  /// parameters are the caller's to place. False when `work` is empty.
+  bool make_dispatch(const char* name, std::initializer_list<const Buffer*> buffers, std::uint32_t params_bytes,
+                     Work work, Command& c);
   VkDescriptorSetLayout set_layout(std::uint32_t bindings);
   VkDescriptorSet descriptor_set(const Kernel& k, const std::vector<const VulkanBuffer*>& buffers);
   VkDescriptorSet allocate_set(VkDescriptorSetLayout layout, VkDescriptorPool& from);
-  void record(VkCommandBuffer cmd, bool one_time);
-  std::vector<std::uint64_t> signature() const;
-  /// BackendOptions::profile_kernels: the timestamp query pool, or a BackendError when the queue
-  /// cannot write timestamps.
-  void create_timestamp_pool();
-  /// After a batch's fence: adds its dispatches' timestamps to profile_.
-  void read_timestamps();
 
   std::unique_ptr<Context> ctx_;  // first: destroyed last, after every object below
   VulkanStats stats_;
@@ -178,32 +261,20 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     VkDescriptorPool pool;
   };
   std::map<std::vector<std::uint64_t>, SetEntry> sets_;  // key: binding count, then buffer ids
-
-  // Parameter buffer: a per-batch bump allocator over host-visible memory.
-  DeviceMemory params_;
   Unique<VkDescriptorPool> params_pool_;
-  VkDescriptorSet params_set_ = VK_NULL_HANDLE;
-  VkDeviceSize params_used_ = 0;
 
-  // Staging: a per-batch bump allocator, grown on demand.
-  DeviceMemory staging_;
-  VkDeviceSize staging_used_ = 0;
-
-  // The pending batch and the recorded ones.
-  std::vector<Command> pending_;
-  std::vector<std::uint64_t> pending_ids_;
-  bool pending_dispatch_ = false;
-  std::vector<DeviceMemory> garbage_;  // retired while a pending command used them
+  // Streams, and what they share.
   Unique<VkCommandPool> command_pool_;
-  Unique<VkFence> fence_;
-  VkCommandBuffer transfer_cmd_ = VK_NULL_HANDLE;  // for batches of copies and fills only
-  std::vector<CachedBatch> cache_;
+  std::vector<Stream> streams_;
+  int current_ = 0;
+  std::vector<Unique<VkSemaphore>> semaphores_;  // every semaphore made
+  std::vector<VkSemaphore> free_semaphores_;
+  std::vector<DeviceMemory> garbage_;  // retired while a pending or running batch used them
   std::uint64_t batch_clock_ = 0;
 
   // Per-kernel timing (BackendOptions::profile_kernels): two timestamps around each of the first
   // kMaxTimedDispatches dispatches of a batch; later ones in the same batch are not timed.
   static constexpr std::uint32_t kMaxTimedDispatches = 1024;
-  Unique<VkQueryPool> timestamps_;
   std::uint64_t timestamp_mask_ = ~0ull;
   double timestamp_ns_ = 1.0;  ///< ns per timestamp tick
   KernelProfile profile_;

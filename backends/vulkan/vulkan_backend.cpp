@@ -16,6 +16,16 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
       throw BackendError("vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got '" + value + "'");
     work_groups_ = value == "on";
   }
+  queues_ = Runtime::kStreams;
+  if (const char* env = std::getenv("PORTA_VULKAN_QUEUES"); env != nullptr && *env != '\0') {
+    const std::string value = env;
+    char* end = nullptr;
+    const long n = std::strtol(env, &end, 10);
+    if (end == env || *end != '\0' || n < 1 || n > Runtime::kStreams)
+      throw BackendError("vulkan: PORTA_VULKAN_QUEUES must be a queue count from 1 to " +
+                         std::to_string(Runtime::kStreams) + ", got '" + value + "'");
+    queues_ = static_cast<int>(n);
+  }
 }
 
 VulkanBackend::~VulkanBackend() {
@@ -41,6 +51,35 @@ void VulkanBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std
 
 void VulkanBackend::synchronize() { runtime_->flush(); }
 
+void VulkanBackend::flush() { runtime_->start(); }
+
+void VulkanBackend::use_queue(int queue) {
+  check_queue_index(queue, "use_queue");
+  runtime_->use_stream(queue);
+}
+
+void VulkanBackend::queue_wait(int other) {
+  check_queue_index(other, "queue_wait");
+  runtime_->stream_wait(other);
+}
+
+void VulkanBackend::finish_queue(int queue) {
+  check_queue_index(queue, "finish_queue");
+  runtime_->finish_stream(queue);
+}
+
+std::unique_ptr<HostBuffer> VulkanBackend::allocate_host(std::size_t bytes) { return runtime_->allocate_host(bytes); }
+
+void VulkanBackend::upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                                 std::size_t bytes) {
+  runtime_->upload_async(dst, dst_offset, src, src_offset, bytes);
+}
+
+void VulkanBackend::download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst,
+                                   std::size_t dst_offset, std::size_t bytes) {
+  runtime_->download_async(src, src_offset, dst, dst_offset, bytes);
+}
+
 std::vector<KernelTime> VulkanBackend::kernel_times(bool reset) { return runtime_->kernel_times(reset); }
 
 VulkanStats VulkanBackend::stats() const { return runtime_->stats(); }
@@ -48,7 +87,7 @@ VulkanStats VulkanBackend::stats() const { return runtime_->stats(); }
 bool VulkanBackend::validation_enabled() const { return runtime_->context().validation(); }
 
 Buffer& VulkanBackend::scratch(const std::string& name, std::size_t bytes) {
-  auto& slot = scratch_[name];
+  auto& slot = scratch_[{runtime_->current_stream(), name}];
   if (!slot || slot->size_bytes() < bytes) slot = allocate(bytes);
   return *slot;
 }

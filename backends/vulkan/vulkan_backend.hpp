@@ -1,14 +1,21 @@
-// The Vulkan backend (Vulkan 1.1+ compute): one device and one compute queue; every kernel of
+// The Vulkan backend (Vulkan 1.1+ compute): one device, several queues; every kernel of
 // DESIGN.md §3 is a GLSL compute shader of shaders/vulkan, compiled to SPIR-V at build time and
 // embedded in the library (cmake/EmbedSpirv.cmake). This header names no Vulkan type: the Vulkan
 // objects live in vk_runtime.hpp / vk_context.hpp, which only the backend's own files include.
 //
-// How work reaches the device (vk_runtime.hpp):
-//  * Kernel calls record into one pending batch; synchronize(), a download (or a full staging or
-//    parameter area) submits it and waits. A full compute/transfer memory barrier separates
-//    consecutive commands. A batch whose commands equal those of an earlier one (same kernels,
-//    buffers, parameters offsets, push constants and sizes) replays that batch's command buffer
-//    instead of recording a new one: a Frontend's frames are recorded once and replayed.
+// How work reaches the device (vk_runtime.hpp, vk_streams.cpp):
+//  * The HAL's queues are streams (Runtime::kStreams of them, spread over up to eight queues of the
+//    device's compute family). Kernel calls record into the current stream's pending batch; the
+//    batch is submitted by flush(), by a queue_wait() that names its stream, or by a wait
+//    (finish_queue(), synchronize(), a download, or a full staging or parameter area). A stream
+//    has at most one batch on the device: recording into it again first waits for that one. A full
+//    compute/transfer memory barrier separates consecutive commands; queue_wait() is a semaphore
+//    between two streams' batches. A batch whose commands equal those of an earlier one of its
+//    stream (same kernels, buffers, parameter offsets, push constants and sizes) replays that
+//    batch's command buffer instead of recording a new one: a Frontend's frames are recorded once
+//    and replayed. $PORTA_VULKAN_QUEUES=1 gives one queue (everything in call order).
+//  * Host buffers (allocate_host) are mapped host-visible memory that the device copies to and from
+//    inside the batch: a Frontend frame is one submit per stream, its inputs and results included.
 //  * Pipelines are created on first use, once per kernel; descriptor sets are cached by the
 //    buffers they bind, so frames that reuse their buffers allocate none (see stats()).
 //  * Kernel buffers are device-local. Where that memory is also host-visible, coherent and
@@ -46,6 +53,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "porta/backend.hpp"
 #include "porta/registry.hpp"
@@ -82,7 +90,21 @@ class VulkanBackend final : public Backend {
   void download(const Buffer& src, std::size_t src_offset, void* dst, std::size_t bytes) override;
   void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) override;
   void synchronize() override;
+  void flush() override;
   std::vector<KernelTime> kernel_times(bool reset) override;
+
+  /// Runtime::kStreams, or $PORTA_VULKAN_QUEUES (1 to kStreams).
+  int queue_count() const override { return queues_; }
+  void use_queue(int queue) override;
+  void queue_wait(int other) override;
+  void finish_queue(int queue) override;
+  /// Mapped host-visible memory the device copies from and to in the queue's batch.
+  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes) override;
+  /// `src` / `dst` must come from this backend's allocate_host() (BackendError otherwise).
+  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
+                    std::size_t bytes) override;
+  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
+                      std::size_t bytes) override;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 
@@ -93,7 +115,8 @@ class VulkanBackend final : public Backend {
   // ---- for the kernel files ----
   Runtime& rt() { return *runtime_; }
   /// Device memory that lives as long as the backend, grown on demand (never shrunk); the
-  /// contents are unspecified after growth (zero when first made).
+  /// contents are unspecified after growth (zero when first made). One per queue: queues never
+  /// share scratch memory.
   Buffer& scratch(const std::string& name, std::size_t bytes);
   /// Kernels with a workgroup per item (orient.comp) rather than an invocation per item
   /// (orient_per_item.comp): on GPUs, not on a CPU device (lavapipe), where they are slower.
@@ -104,7 +127,8 @@ class VulkanBackend final : public Backend {
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
   bool work_groups_ = true;
-  std::map<std::string, std::unique_ptr<Buffer>> scratch_;
+  int queues_ = 1;
+  std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };
 
 }  // namespace porta::vulkan

@@ -306,6 +306,7 @@ void Frontend::submit_one(const ImageView* image, const InputImage* input) {
   backend_.use_queue(slot.queues[0]);
   run_side(slot, slot.sides[0], image, input);
   if (downloads_at_submit_) enqueue_downloads(slot.sides[0]);
+  backend_.flush();  // the frame runs while the caller works
   next_submit_ = (next_submit_ + 1) % in_flight();
   ++pending_;
 }
@@ -334,6 +335,7 @@ void Frontend::submit_pair(const ImageView* left, const InputImage* left_input, 
     enqueue_downloads(l);
     backend_.download_async(*slot.matches, 0, *slot.match_output, 0, slot.matches->size_bytes());
   }
+  backend_.flush();  // the frame runs while the caller works
   slot.times.stereo_ns += now_ns() - ts;
   next_submit_ = (next_submit_ + 1) % in_flight();
   ++pending_;

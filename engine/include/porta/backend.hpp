@@ -138,6 +138,11 @@ class Backend {
   virtual void fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) = 0;
   /// Waits for all work submitted so far.
   virtual void synchronize() = 0;
+  /// Starts the work given so far, on every queue, without waiting for it. Backends that gather
+  /// work into batches (vulkan) or hold it in the driver (opencl) may otherwise keep it until a
+  /// wait: finish_queue(), synchronize(), a download, or a queue_wait() that needs it. The cpu and
+  /// cuda backends start work at once and do nothing here.
+  virtual void flush() {}
   /// True when device buffers are host memory (no copy is needed to read them on the host).
   virtual bool host_visible() const { return false; }
   /// Device time per kernel since the backend was made or since the last call with `reset`, in

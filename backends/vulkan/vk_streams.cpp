@@ -1,0 +1,415 @@
+// The streams of the Vulkan backend (the HAL's queues): recording into a stream's pending batch,
+// submitting it (replaying an equal batch's command buffer), the semaphores of stream_wait, the
+// fences a stream's running batch is waited for with, and per-kernel timestamps.
+// vulkan_backend.hpp has the design; memory and transfers are in vk_runtime.cpp.
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "vulkan/vk_errors.hpp"
+#include "vulkan/vk_runtime.hpp"
+
+namespace porta::vulkan {
+
+namespace {
+
+constexpr std::size_t kMaxCachedBatches = 16;  // per stream
+/// Parameter bytes one batch may use before it is submitted to make room.
+constexpr VkDeviceSize kParamsArea = 64 * 1024;
+/// Every command may read what any before it wrote: compute and transfer, both ways.
+constexpr VkPipelineStageFlags kStages = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT;
+
+bool contains(const std::vector<std::uint64_t>& v, std::uint64_t id) {
+  return std::find(v.begin(), v.end(), id) != v.end();
+}
+
+}  // namespace
+
+// ---- Creation ------------------------------------------------------------------------------------
+
+void Runtime::create_streams(bool profile_kernels) {
+  const VkDevice dev = ctx_->device();
+  // The parameter buffers: one dynamic storage-buffer descriptor per stream, each dispatch at its
+  // own offset.
+  VkDescriptorSetLayoutBinding binding{};
+  binding.binding = 0;
+  binding.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER_DYNAMIC;
+  binding.descriptorCount = 1;
+  binding.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  auto layout_info =
+      make_info<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+  layout_info.bindingCount = 1;
+  layout_info.pBindings = &binding;
+  VkDescriptorSetLayout layout = VK_NULL_HANDLE;
+  check(vkCreateDescriptorSetLayout(dev, &layout_info, nullptr, &layout), "vkCreateDescriptorSetLayout",
+        "parameters");
+  params_layout_ = Unique<VkDescriptorSetLayout>(dev, layout, vkDestroyDescriptorSetLayout);
+
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER_DYNAMIC, kStreams};
+  auto pool_info = make_info<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  pool_info.maxSets = kStreams;
+  pool_info.poolSizeCount = 1;
+  pool_info.pPoolSizes = &size;
+  VkDescriptorPool params_pool = VK_NULL_HANDLE;
+  check(vkCreateDescriptorPool(dev, &pool_info, nullptr, &params_pool), "vkCreateDescriptorPool", "parameters");
+  params_pool_ = Unique<VkDescriptorPool>(dev, params_pool, vkDestroyDescriptorPool);
+
+  if (profile_kernels) {
+    std::uint32_t families = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(ctx_->physical(), &families, nullptr);
+    std::vector<VkQueueFamilyProperties> props(families);
+    vkGetPhysicalDeviceQueueFamilyProperties(ctx_->physical(), &families, props.data());
+    const std::uint32_t bits = ctx_->queue_family() < families ? props[ctx_->queue_family()].timestampValidBits : 0;
+    if (bits == 0 || !(ctx_->limits().timestampPeriod > 0.0f)) {
+      throw BackendError("vulkan: per-kernel timing asked, but this device's compute queue writes no timestamps "
+                         "(timestampValidBits " + std::to_string(bits) + ", timestampPeriod " +
+                         std::to_string(ctx_->limits().timestampPeriod) + ")");
+    }
+    timestamp_mask_ = bits >= 64 ? ~0ull : (1ull << bits) - 1;
+    timestamp_ns_ = ctx_->limits().timestampPeriod;
+  }
+
+  streams_.resize(kStreams);
+  const auto& queues = ctx_->queues();
+  for (std::size_t i = 0; i < streams_.size(); ++i) {
+    Stream& s = streams_[i];
+    s.queue = queues[i % queues.size()];
+    auto fence_info = make_info<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+    VkFence fence = VK_NULL_HANDLE;
+    check(vkCreateFence(dev, &fence_info, nullptr, &fence), "vkCreateFence");
+    s.fence = Unique<VkFence>(dev, fence, vkDestroyFence);
+
+    auto cmd_info = make_info<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+    cmd_info.commandPool = command_pool_.get();
+    cmd_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cmd_info.commandBufferCount = 1;
+    check(vkAllocateCommandBuffers(dev, &cmd_info, &s.transfer_cmd), "vkAllocateCommandBuffers", "transfers");
+
+    s.params = make_memory(kParamsArea + kMaxParamsBytes, true);
+    auto set_info = make_info<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    set_info.descriptorPool = params_pool;
+    set_info.descriptorSetCount = 1;
+    set_info.pSetLayouts = &layout;
+    check(vkAllocateDescriptorSets(dev, &set_info, &s.params_set), "vkAllocateDescriptorSets", "parameters");
+    VkDescriptorBufferInfo buffer_info{s.params.buffer.get(), 0, kMaxParamsBytes};
+    auto write = make_info<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    write.dstSet = s.params_set;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER_DYNAMIC;
+    write.pBufferInfo = &buffer_info;
+    vkUpdateDescriptorSets(dev, 1, &write, 0, nullptr);
+    if (profile_kernels) s.timestamps = create_timestamp_pool();
+  }
+}
+
+Unique<VkQueryPool> Runtime::create_timestamp_pool() {
+  auto info = make_info<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
+  info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  info.queryCount = 2 * kMaxTimedDispatches;
+  VkQueryPool pool = VK_NULL_HANDLE;
+  check(vkCreateQueryPool(ctx_->device(), &info, nullptr, &pool), "vkCreateQueryPool", "kernel timestamps");
+  return Unique<VkQueryPool>(ctx_->device(), pool, vkDestroyQueryPool);
+}
+
+// ---- Recording -----------------------------------------------------------------------------------
+
+void Runtime::begin_record(Stream& s) {
+  if (s.pending.empty() && s.running) complete(s);
+}
+
+void Runtime::note_use(Stream& s, std::uint64_t id) {
+  if (!contains(s.pending_ids, id)) s.pending_ids.push_back(id);
+}
+
+void Runtime::push_command(Stream& s, Command c) {
+  for (const std::uint64_t id : c.ids) note_use(s, id);
+  if (c.kind == Command::Kind::kDispatch) s.pending_dispatch = true;
+  s.pending.push_back(std::move(c));
+}
+
+void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*> buffers, const void* params,
+                           std::uint32_t params_bytes, Work work) {
+  Command c;
+  if (!make_dispatch(name, buffers, params_bytes, work, c)) return;
+  Stream& s = current();
+  begin_record(s);
+  if (c.kernel->params_buffer) {
+    const VkDeviceSize align = std::max<VkDeviceSize>(16, ctx_->limits().minStorageBufferOffsetAlignment);
+    VkDeviceSize at = (s.params_used + align - 1) / align * align;
+    if (at + kMaxParamsBytes > s.params.size) {  // this batch used the whole parameter area
+      finish_stream(current_);
+      at = 0;
+    }
+    std::memcpy(static_cast<std::uint8_t*>(s.params.mapped) + at, params, params_bytes);
+    c.params_offset = static_cast<std::uint32_t>(at);
+    s.params_used = at + params_bytes;
+  } else if (c.kernel->push) {
+    std::memcpy(c.push.data(), params, params_bytes);
+    c.push_bytes = (params_bytes + 3) / 4 * 4;
+  }
+  push_command(s, std::move(c));
+}
+
+// ---- Streams -------------------------------------------------------------------------------------
+
+VkSemaphore Runtime::take_semaphore() {
+  if (!free_semaphores_.empty()) {
+    const VkSemaphore sem = free_semaphores_.back();
+    free_semaphores_.pop_back();
+    return sem;
+  }
+  auto info = make_info<VkSemaphoreCreateInfo>(VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO);
+  VkSemaphore sem = VK_NULL_HANDLE;
+  check(vkCreateSemaphore(ctx_->device(), &info, nullptr, &sem), "vkCreateSemaphore");
+  semaphores_.emplace_back(ctx_->device(), sem, vkDestroySemaphore);
+  return sem;
+}
+
+void Runtime::stream_wait(int other) {
+  if (other == current_) return;  // a stream runs in order
+  Stream& o = streams_[static_cast<std::size_t>(other)];
+  if (!o.pending.empty() || !o.waits.empty()) {
+    const VkSemaphore sem = take_semaphore();
+    submit(o, sem);
+    current().waits.push_back(sem);
+  } else if (o.running) {
+    complete(o);  // already on the device without a semaphore: the host waits for it
+  }
+}
+
+void Runtime::finish_stream(int stream) {
+  Stream& s = streams_[static_cast<std::size_t>(stream)];
+  if (!s.pending.empty() || !s.waits.empty()) submit(s, VK_NULL_HANDLE);
+  complete(s);
+  ctx_->throw_validation_errors("a submitted batch");
+}
+
+void Runtime::start() {
+  for (Stream& s : streams_)
+    if (!s.pending.empty() || !s.waits.empty()) submit(s, VK_NULL_HANDLE);
+}
+
+void Runtime::flush() {
+  start();
+  for (Stream& s : streams_) complete(s);
+  collect_garbage();
+  ctx_->throw_validation_errors("a submitted batch");
+}
+
+std::vector<KernelTime> Runtime::kernel_times(bool reset) {
+  flush();
+  return profile_.take(reset);
+}
+
+void Runtime::drop_pending(Stream& s) {
+  s.pending.clear();
+  s.pending_ids.clear();
+  s.pending_dispatch = false;
+  s.waits.clear();  // left signalled, never reused
+  s.params_used = 0;
+  s.staging_used = 0;
+}
+
+void Runtime::submit(Stream& s, VkSemaphore signal) {
+  if (s.running) complete(s);
+  try {
+    const VkCommandBuffer cmd = s.pending.empty() ? VK_NULL_HANDLE : command_buffer_for(s);
+    const std::vector<VkPipelineStageFlags> wait_stages(s.waits.size(), kStages);
+    auto submit = make_info<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+    submit.waitSemaphoreCount = static_cast<std::uint32_t>(s.waits.size());
+    submit.pWaitSemaphores = s.waits.data();
+    submit.pWaitDstStageMask = wait_stages.data();
+    submit.commandBufferCount = cmd == VK_NULL_HANDLE ? 0 : 1;
+    submit.pCommandBuffers = &cmd;
+    submit.signalSemaphoreCount = signal == VK_NULL_HANDLE ? 0 : 1;
+    submit.pSignalSemaphores = &signal;
+    check(vkQueueSubmit(s.queue, 1, &submit, s.fence.get()), "vkQueueSubmit");
+  } catch (...) {
+    drop_pending(s);
+    throw;
+  }
+  ++stats_.submits;
+  s.running = true;
+  s.running_ids = std::move(s.pending_ids);
+  s.running_timed.clear();
+  if (s.timestamps) {
+    for (const Command& c : s.pending)
+      if (c.kind == Command::Kind::kDispatch && s.running_timed.size() < kMaxTimedDispatches)
+        s.running_timed.push_back(c.kernel);
+  }
+  s.running_waits = std::move(s.waits);
+  s.waits.clear();
+  s.pending_ids.clear();
+  s.pending.clear();
+  s.pending_dispatch = false;
+  s.params_used = 0;
+  s.staging_used = 0;
+}
+
+void Runtime::complete(Stream& s) {
+  if (!s.running) return;
+  s.running = false;  // also when the wait fails: the error is reported once
+  const VkFence fence = s.fence.get();
+  const VkDevice dev = ctx_->device();
+  check(vkWaitForFences(dev, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  check(vkResetFences(dev, 1, &fence), "vkResetFences");
+  free_semaphores_.insert(free_semaphores_.end(), s.running_waits.begin(), s.running_waits.end());
+  s.running_waits.clear();
+  s.running_ids.clear();
+  if (s.timestamps) read_timestamps(s);
+  collect_garbage();
+}
+
+// ---- Batches -------------------------------------------------------------------------------------
+
+std::vector<std::uint64_t> Runtime::signature(const Stream& s) const {
+  std::vector<std::uint64_t> sig;
+  sig.reserve(s.pending.size() * 16);
+  for (const Command& c : s.pending) {
+    sig.push_back(static_cast<std::uint64_t>(c.kind));
+    sig.push_back(c.ids.size());
+    sig.insert(sig.end(), c.ids.begin(), c.ids.end());
+    switch (c.kind) {
+      case Command::Kind::kDispatch:
+        sig.push_back(c.kernel->index);
+        sig.push_back(c.params_offset);
+        sig.push_back(c.push_bytes);
+        for (std::uint32_t i = 0; i < c.push_bytes / 4; ++i) sig.push_back(c.push[i]);
+        sig.insert(sig.end(), {c.groups[0], c.groups[1], c.groups[2]});
+        break;
+      case Command::Kind::kCopy:
+        sig.insert(sig.end(), {c.src_offset, c.dst_offset, c.bytes});
+        break;
+      case Command::Kind::kFill:
+        sig.insert(sig.end(), {c.dst_offset, c.bytes, c.fill_word});
+        break;
+    }
+  }
+  return sig;
+}
+
+VkCommandBuffer Runtime::command_buffer_for(Stream& s) {
+  if (!s.pending_dispatch) {
+    record(s, s.transfer_cmd, true);  // copies and fills only: cheap to record, sizes vary
+    return s.transfer_cmd;
+  }
+  // A batch equal to an earlier one of this stream replays its command buffer (parameters in the
+  // parameter buffer are read at execution, so only their offsets need to match).
+  std::vector<std::uint64_t> sig = signature(s);
+  ++batch_clock_;
+  for (CachedBatch& cached : s.cache) {
+    if (cached.signature == sig) {
+      cached.last_use = batch_clock_;
+      ++stats_.command_buffers_replayed;
+      return cached.cmd;
+    }
+  }
+  const VkDevice dev = ctx_->device();
+  if (s.cache.size() >= kMaxCachedBatches) {
+    auto oldest = std::min_element(s.cache.begin(), s.cache.end(), [](const CachedBatch& a, const CachedBatch& b) {
+      return a.last_use < b.last_use;
+    });
+    vkFreeCommandBuffers(dev, command_pool_.get(), 1, &oldest->cmd);
+    s.cache.erase(oldest);
+  }
+  auto info = make_info<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+  info.commandPool = command_pool_.get();
+  info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  info.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  check(vkAllocateCommandBuffers(dev, &info, &cmd), "vkAllocateCommandBuffers", "a batch");
+  try {
+    record(s, cmd, false);
+  } catch (...) {
+    vkFreeCommandBuffers(dev, command_pool_.get(), 1, &cmd);
+    throw;
+  }
+  ++stats_.command_buffers_recorded;
+  s.cache.push_back({std::move(sig), s.pending_ids, cmd, batch_clock_});
+  return cmd;
+}
+
+void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
+  auto begin = make_info<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+  begin.flags = one_time ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
+  check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+  // Each command may read what the one before wrote: a full compute/transfer barrier between
+  // every two (DESIGN.md allows it; the frontend's kernels depend on each other in a chain), and
+  // one in front, for what earlier batches on this queue wrote.
+  auto between = make_info<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+  between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+  between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                          VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+  const Kernel* bound = nullptr;
+  std::uint32_t dispatches = 0;  // timed so far
+  if (s.timestamps) {
+    const auto timed = static_cast<std::uint32_t>(std::min<std::size_t>(
+        kMaxTimedDispatches, std::count_if(s.pending.begin(), s.pending.end(), [](const Command& c) {
+          return c.kind == Command::Kind::kDispatch;
+        })));
+    if (timed > 0) vkCmdResetQueryPool(cmd, s.timestamps.get(), 0, 2 * timed);
+  }
+  for (const Command& c : s.pending) {
+    vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
+    switch (c.kind) {
+      case Command::Kind::kDispatch: {
+        const Kernel& k = *c.kernel;
+        if (bound != &k) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipeline.get());
+        bound = &k;
+        if (k.params_buffer) {
+          const VkDescriptorSet sets[2] = {c.set, s.params_set};
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout.get(), 0, 2, sets, 1,
+                                  &c.params_offset);
+        } else {
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout.get(), 0, 1, &c.set, 0,
+                                  nullptr);
+        }
+        if (k.push && c.push_bytes > 0)
+          vkCmdPushConstants(cmd, k.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, c.push_bytes, c.push.data());
+        const bool timed = s.timestamps && dispatches < kMaxTimedDispatches;
+        if (timed)
+          vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, s.timestamps.get(), 2 * dispatches);
+        vkCmdDispatch(cmd, c.groups[0], c.groups[1], c.groups[2]);
+        if (timed) {
+          vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, s.timestamps.get(), 2 * dispatches + 1);
+          ++dispatches;
+        }
+        break;
+      }
+      case Command::Kind::kCopy: {
+        const VkBufferCopy region{c.src_offset, c.dst_offset, c.bytes};
+        vkCmdCopyBuffer(cmd, c.src, c.dst, 1, &region);
+        break;
+      }
+      case Command::Kind::kFill:
+        vkCmdFillBuffer(cmd, c.dst, c.dst_offset, c.bytes, c.fill_word);
+        break;
+    }
+  }
+  // Device writes become visible to the host once the fence has signalled.
+  auto to_host = make_info<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+  to_host.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+  to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cmd, kStages, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &to_host, 0, nullptr, 0, nullptr);
+  check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+}
+
+// ---- Per-kernel timing ---------------------------------------------------------------------------
+
+void Runtime::read_timestamps(Stream& s) {
+  const std::vector<const Kernel*> timed = std::move(s.running_timed);
+  s.running_timed.clear();
+  if (timed.empty()) return;
+  std::vector<std::uint64_t> ticks(2 * timed.size());
+  check(vkGetQueryPoolResults(ctx_->device(), s.timestamps.get(), 0, static_cast<std::uint32_t>(ticks.size()),
+                              ticks.size() * sizeof(std::uint64_t), ticks.data(), sizeof(std::uint64_t),
+                              VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+        "vkGetQueryPoolResults", "kernel timestamps");
+  for (std::size_t d = 0; d < timed.size(); ++d) {
+    const std::uint64_t ticks_run = (ticks[2 * d + 1] - ticks[2 * d]) & timestamp_mask_;
+    profile_.add(timed[d]->name, static_cast<double>(ticks_run) * timestamp_ns_ * 1e-6);
+  }
+}
+
+}  // namespace porta::vulkan
