@@ -18,7 +18,10 @@
 # before they had queues (frames-*-one-queue.txt).
 # Environment: PORTA_PROFILE_FRAMES (timed frames per cell, default 200; warm-up 20),
 # PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
-# PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh).
+# PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh), PORTA_PROFILE_CELLS
+# (names of the cells to run, e.g. "320x240-1 752x480-8"; default all), PORTA_PROFILE_BACKENDS
+# (default: every backend available). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
+# pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 
@@ -36,7 +39,7 @@ gpu_build "$build_dir" portaslam || exit 1
 "$binary" backends | tee "$out_dir/backends.txt"
 available() { awk -v b="$1" 'NR > 1 && $1 == b && $2 == "yes" && $3 == "yes" {found = 1} END {exit !found}' "$out_dir/backends.txt"; }
 all="" timed=""
-for b in cpu cuda vulkan opencl; do
+for b in ${PORTA_PROFILE_BACKENDS:-cpu cuda vulkan opencl}; do
   available "$b" || continue
   all="${all:+$all,}$b"
   case "$b" in vulkan | opencl) timed="${timed:+$timed,}$b" ;; esac
@@ -46,6 +49,13 @@ done
 status=0
 # name: resolution levels modes
 cells=("1242x375-8:1242x375 8 stereo,extract" "752x480-8:752x480 8 detect" "320x240-1:320x240 1 detect")
+if [ -n "${PORTA_PROFILE_CELLS:-}" ]; then  # e.g. "320x240-1 752x480-8": only those
+  kept=()
+  for cell in "${cells[@]}"; do
+    case " $PORTA_PROFILE_CELLS " in *" ${cell%%:*} "*) kept+=("$cell") ;; esac
+  done
+  cells=("${kept[@]}")
+fi
 for cell in "${cells[@]}"; do
   name="${cell%%:*}"
   read -r size levels modes <<<"${cell#*:}"

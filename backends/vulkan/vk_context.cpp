@@ -357,13 +357,22 @@ Context::Context(const BackendOptions& options) {
     // ---- Logical device ----
     const Requirements req = check_requirements(physical_, instance.api_version);
     queue_family_ = static_cast<std::uint32_t>(compute_family(physical_));
-    // Up to kMaxDeviceQueues queues of that family: the runtime's streams are spread over them.
+    // kDefaultDeviceQueues queues of that family, or as many as asked for (up to what it has):
+    // the runtime's streams are spread over them.
     std::uint32_t families = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, nullptr);
     std::vector<VkQueueFamilyProperties> family_props(families);
     vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, family_props.data());
-    const std::uint32_t queue_count =
-        std::clamp<std::uint32_t>(family_props[queue_family_].queueCount, 1, kMaxDeviceQueues);
+    std::uint32_t queue_count = kDefaultDeviceQueues;
+    if (const char* env = std::getenv("PORTA_VULKAN_DEVICE_QUEUES"); env != nullptr && *env != '\0') {
+      char* end = nullptr;
+      const long n = std::strtol(env, &end, 10);
+      if (end == env || *end != '\0' || n < 1 || n > static_cast<long>(kMaxDeviceQueues))
+        throw BackendError("vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to " +
+                           std::to_string(kMaxDeviceQueues) + ", got '" + env + "'");
+      queue_count = static_cast<std::uint32_t>(n);
+    }
+    queue_count = std::clamp<std::uint32_t>(queue_count, 1, std::max(family_props[queue_family_].queueCount, 1u));
     const std::vector<float> priorities(queue_count, 1.0f);
     auto queue_info = make_info<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
     queue_info.queueFamilyIndex = queue_family_;

@@ -16,8 +16,12 @@
 
 namespace porta::vulkan {
 
-/// Most queues the logical device is created with (fewer where the compute family has fewer).
+/// Most queues the logical device may be created with ($PORTA_VULKAN_DEVICE_QUEUES; fewer where
+/// the compute family has fewer). The default is one: on NVIDIA's driver, streams on queues of
+/// their own ran 1.4-3x slower than on one queue (H200, docs/BENCHMARKS.md), as the GPU switches
+/// between the queues rather than running them together.
 inline constexpr std::uint32_t kMaxDeviceQueues = 8;
+inline constexpr std::uint32_t kDefaultDeviceQueues = 1;
 
 /// A Vulkan info struct with its sType set and every other member zero.
 template <typename T>
@@ -90,7 +94,8 @@ class Context {
  public:
   /// Creates the instance, selects the device (BackendOptions::device, else $PORTA_VULKAN_DEVICE,
   /// else the first discrete, integrated, virtual, then cpu device that has what the kernels need)
-  /// and creates the logical device with up to kMaxDeviceQueues queues of one compute family.
+  /// and creates the logical device with kDefaultDeviceQueues queues of one compute family
+  /// ($PORTA_VULKAN_DEVICE_QUEUES: up to kMaxDeviceQueues).
   explicit Context(const BackendOptions& options);
   ~Context();
   Context(const Context&) = delete;

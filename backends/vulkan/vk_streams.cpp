@@ -335,12 +335,17 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
   begin.flags = one_time ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
   check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
   // Each command may read what the one before wrote: a full compute/transfer barrier between
-  // every two (DESIGN.md allows it; the frontend's kernels depend on each other in a chain), and
-  // one in front, for what earlier batches on this queue wrote.
+  // every two (DESIGN.md allows it; the frontend's kernels depend on each other in a chain).
   auto between = make_info<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
   between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
   between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                           VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+  // In front: what earlier batches wrote is available (their fence, or the semaphore this batch
+  // waits for, made it so) and becomes visible here. It waits for no earlier command, so batches of
+  // other streams on the same queue are not drained by it.
+  auto visible = make_info<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+  visible.dstAccessMask = between.dstAccessMask;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, kStages, 0, 1, &visible, 0, nullptr, 0, nullptr);
   const Kernel* bound = nullptr;
   std::uint32_t dispatches = 0;  // timed so far
   if (s.timestamps) {
@@ -350,8 +355,9 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
         })));
     if (timed > 0) vkCmdResetQueryPool(cmd, s.timestamps.get(), 0, 2 * timed);
   }
-  for (const Command& c : s.pending) {
-    vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
+  for (std::size_t i = 0; i < s.pending.size(); ++i) {
+    const Command& c = s.pending[i];
+    if (i > 0) vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
     switch (c.kind) {
       case Command::Kind::kDispatch: {
         const Kernel& k = *c.kernel;

@@ -81,12 +81,24 @@ frames/s"
                    STDERR "opencl: PORTA_OPENCL_WORK_GROUPS must be on or off, got 'maybe'"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_WORK_GROUPS=maybe)
+    porta_cli_test(bench_opencl_queues_bad_value EXIT 1
+                   STDERR "opencl: PORTA_OPENCL_QUEUES must be a queue count from 1 to 8, got '0'"
+                   ARGS bench ${tiny} --backend opencl --no-peer)
+    set_tests_properties(cli.bench_opencl_queues_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_QUEUES=0)
   endif()
   if(TARGET porta_backend_vulkan)  # lavapipe in CI
     porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got 'yes'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_WORK_GROUPS=yes)
+    porta_cli_test(bench_vulkan_queues_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_QUEUES must be a queue count from 1 to 8, got '9'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_QUEUES=9)
+    porta_cli_test(bench_vulkan_device_queues_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to 8, got 'two'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_device_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_DEVICE_QUEUES=two)
   endif()
   porta_cli_test(bench_frames_zero EXIT 1
                  STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
