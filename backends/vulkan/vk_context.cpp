@@ -458,6 +458,19 @@ MemoryChoice Context::host_memory(std::uint32_t allowed) const {
   throw BackendError("vulkan: no host-visible coherent memory type for staging on " + entry_.label());
 }
 
+MemoryChoice Context::params_memory(std::uint32_t allowed) const {
+  constexpr VkMemoryPropertyFlags kBar =
+      VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  const char* env = std::getenv("PORTA_VULKAN_PARAMS_MEMORY");
+  const std::string where = env != nullptr ? env : "";
+  if (!where.empty() && where != "host" && where != "device")
+    throw BackendError("vulkan: PORTA_VULKAN_PARAMS_MEMORY must be host or device, got '" + where + "'");
+  if (where != "host")
+    for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i)
+      if ((allowed & (1u << i)) != 0 && (memory_.memoryTypes[i].propertyFlags & kBar) == kBar) return {i, true};
+  return host_memory(allowed);
+}
+
 void Context::add_validation_message(bool is_error, const std::string& text) {
   if (is_error)
     validation_errors_.push_back(text);

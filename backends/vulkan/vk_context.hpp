@@ -117,8 +117,13 @@ class Context {
   /// memory is also host-visible, coherent and cached (unified memory, e.g. lavapipe) and
   /// $PORTA_VULKAN_STAGING is not 1 (which forces the staging path of discrete GPUs, for tests).
   MemoryChoice device_memory(std::uint32_t allowed_types) const;
-  /// Host-visible coherent memory for staging and parameters (cached when available).
+  /// Host-visible coherent memory for staging and host buffers (cached when available).
   MemoryChoice host_memory(std::uint32_t allowed_types) const;
+  /// Memory for the kernels' parameter blocks, which the host writes and every workgroup reads:
+  /// device-local and host-visible where the device has it (a discrete GPU's BAR), so that the
+  /// shaders do not read them across the bus; else host_memory(). $PORTA_VULKAN_PARAMS_MEMORY=host
+  /// forces host_memory() (to measure the difference).
+  MemoryChoice params_memory(std::uint32_t allowed_types) const;
 
   /// Throws BackendError with the validation layer's error messages since the last call, if any.
   void throw_validation_errors(const char* when);

@@ -65,7 +65,7 @@ Runtime::~Runtime() {
 
 // ---- Memory --------------------------------------------------------------------------------------
 
-DeviceMemory Runtime::make_memory(VkDeviceSize bytes, bool host) {
+DeviceMemory Runtime::make_memory(VkDeviceSize bytes, Place place) {
   const VkDevice dev = ctx_->device();
   DeviceMemory m;
   m.size = std::max<VkDeviceSize>(4, align_up(bytes, 4));  // vkCmdFillBuffer works on whole words
@@ -82,8 +82,9 @@ DeviceMemory Runtime::make_memory(VkDeviceSize bytes, bool host) {
 
   VkMemoryRequirements req{};
   vkGetBufferMemoryRequirements(dev, buffer, &req);
-  const MemoryChoice choice =
-      host ? ctx_->host_memory(req.memoryTypeBits) : ctx_->device_memory(req.memoryTypeBits);
+  const MemoryChoice choice = place == Place::kHost     ? ctx_->host_memory(req.memoryTypeBits)
+                              : place == Place::kParams ? ctx_->params_memory(req.memoryTypeBits)
+                                                        : ctx_->device_memory(req.memoryTypeBits);
   auto alloc = make_info<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
   alloc.allocationSize = req.size;
   alloc.memoryTypeIndex = choice.type_index;
@@ -96,7 +97,7 @@ DeviceMemory Runtime::make_memory(VkDeviceSize bytes, bool host) {
 }
 
 std::unique_ptr<Buffer> Runtime::allocate(std::size_t bytes) {
-  DeviceMemory m = make_memory(bytes, false);
+  DeviceMemory m = make_memory(bytes, Place::kDevice);
   ++stats_.buffers_allocated;
   if (m.mapped != nullptr) {
     std::memset(m.mapped, 0, m.size);
@@ -114,7 +115,7 @@ std::unique_ptr<Buffer> Runtime::allocate(std::size_t bytes) {
 }
 
 std::unique_ptr<HostBuffer> Runtime::allocate_host(std::size_t bytes) {
-  DeviceMemory m = make_memory(bytes, true);
+  DeviceMemory m = make_memory(bytes, Place::kHost);
   std::memset(m.mapped, 0, m.size);
   return std::make_unique<VulkanHostBuffer>(shared_from_this(), std::move(m), bytes);
 }
@@ -150,7 +151,7 @@ VkDeviceSize Runtime::reserve_staging(Stream& s, VkDeviceSize bytes) {
     if (need > s.staging.size) {
       const VkDeviceSize grown = std::max({kMinStaging, need, 2 * s.staging.size});
       if (s.staging.buffer) destroy_now(std::move(s.staging));
-      s.staging = make_memory(grown, true);
+      s.staging = make_memory(grown, Place::kHost);
     }
   }
   const VkDeviceSize at = s.staging_used;

@@ -202,7 +202,10 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     std::vector<VkSemaphore> running_waits;     ///< free again once it has run
   };
 
-  DeviceMemory make_memory(VkDeviceSize bytes, bool host);
+  /// Where a buffer's memory is: kernel buffers on the device, staging and host buffers in the
+  /// host's memory, parameter blocks as Context::params_memory() says.
+  enum class Place { kDevice, kHost, kParams };
+  DeviceMemory make_memory(VkDeviceSize bytes, Place place);
   const VulkanBuffer& vk(const Buffer& b, const char* call) const;
   const VulkanHostBuffer& vk_host(const HostBuffer& b, const char* call) const;
   /// True while a pending or running batch of any stream uses the memory.

@@ -85,7 +85,7 @@ void Runtime::create_streams(bool profile_kernels) {
     cmd_info.commandBufferCount = 1;
     check(vkAllocateCommandBuffers(dev, &cmd_info, &s.transfer_cmd), "vkAllocateCommandBuffers", "transfers");
 
-    s.params = make_memory(kParamsArea + kMaxParamsBytes, true);
+    s.params = make_memory(kParamsArea + kMaxParamsBytes, Place::kParams);
     auto set_info = make_info<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     set_info.descriptorPool = params_pool;
     set_info.descriptorSetCount = 1;
