@@ -34,6 +34,9 @@ struct PfaStepParams {  // pfa_accumulate/decide/apply.comp (push constants)
 struct CompactParams {  // compact_count/scan/scatter.comp (push constants)
   std::uint32_t total_cells, block, capacity, num_blocks, count_offset, pad[3];
 };
+struct CompactGroupParams {  // compact_group.comp (push constants)
+  std::uint32_t total_cells, capacity, count_offset;
+};
 static_assert(sizeof(PfaStepParams) <= kMaxPushBytes && sizeof(CompactParams) <= kMaxPushBytes);
 
 constexpr std::uint32_t kCompactBlock = 128;  // cells per invocation of the compaction
@@ -142,6 +145,16 @@ void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
   const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total_cells, out);
   const int total = std::max(total_cells, 0);
 
+  // Without items, the cell array stands in for the unused items binding.
+  const Buffer* items = capacity > 0 ? out.items : &cells;
+  const VkPhysicalDeviceLimits& limits = rt().context().limits();
+  if (work_groups() && limits.maxComputeWorkGroupInvocations >= 256 && limits.maxComputeWorkGroupSize[0] >= 256) {
+    // GPUs: one workgroup scans the cells in tiles (compact_group.comp), one dispatch instead of three.
+    const CompactGroupParams g{static_cast<std::uint32_t>(total), static_cast<std::uint32_t>(capacity),
+                               static_cast<std::uint32_t>(out.count_offset_bytes)};
+    rt().dispatch("compact_group", {&cells, items, out.count}, g, Work::groups(1));
+    return;
+  }
   const std::uint32_t num_blocks = (static_cast<std::uint32_t>(total) + kCompactBlock - 1) / kCompactBlock;
   Buffer& blocks =
       scratch("compact_blocks", static_cast<std::size_t>(std::max<std::uint32_t>(num_blocks, 1)) * 4);
@@ -151,8 +164,6 @@ void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
                         num_blocks,
                         static_cast<std::uint32_t>(out.count_offset_bytes),
                         {0, 0, 0}};
-  // Without items, the cell array stands in for the unused items binding.
-  const Buffer* items = capacity > 0 ? out.items : &cells;
   rt().dispatch("compact_count", {&cells, &blocks, items, out.count}, p, Work::items(num_blocks));
   rt().dispatch("compact_scan", {&cells, &blocks, items, out.count}, p, Work::items(1));
   if (capacity > 0)

@@ -119,7 +119,8 @@ class VulkanBackend final : public Backend {
   /// share scratch memory.
   Buffer& scratch(const std::string& name, std::size_t bytes);
   /// Kernels with a workgroup per item (orient.comp) rather than an invocation per item
-  /// (orient_per_item.comp): on GPUs, not on a CPU device (lavapipe), where they are slower.
+  /// (orient_per_item.comp), and compaction in one workgroup (compact_group.comp) rather than three
+  /// dispatches: on GPUs, not on a CPU device (lavapipe), where they are slower.
   /// $PORTA_VULKAN_WORK_GROUPS=on or off overrides (the equivalence suite runs both on lavapipe).
   /// The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
