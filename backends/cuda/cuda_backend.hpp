@@ -153,19 +153,12 @@ class CudaBackend final : public Backend {
 
   /// kMaxQueues, or 1 when streams are off ($PORTA_CUDA_STREAMS=0).
   int queue_count() const override { return streams_enabled_ ? kMaxQueues : 1; }
-  /// Queue q's stream from now on (with streams off every queue is stream 0). Submits what the
-  /// queue being left has pending, so that it runs while the host records the next one.
-  void use_queue(int queue) override;
-  /// An event recorded on `other`'s stream that the current stream waits for.
-  void queue_wait(int other) override;
-  void finish_queue(int queue) override;
-  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes) override;
-  /// `src` / `dst` must come from this backend's allocate_host() (BackendError otherwise): the
-  /// copy is then a plain DMA that a CUDA graph can hold.
-  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
-                    std::size_t bytes) override;
-  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
-                      std::size_t bytes) override;
+  /// use_queue: queue q's stream from now on (with streams off every queue is stream 0); submits
+  /// what the queue being left has pending, so that it runs while the host records the next one.
+  /// queue_wait: an event recorded on `other`'s stream that the current stream waits for.
+  /// upload_async / download_async: `src` / `dst` must come from this backend's allocate_host()
+  /// (BackendError otherwise): the copy is then a plain DMA that a CUDA graph can hold.
+  PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 

@@ -77,16 +77,9 @@ class OpenClBackend final : public Backend {
   static constexpr int kQueues = 8;
   /// kQueues, or $PORTA_OPENCL_QUEUES (1 to kQueues).
   int queue_count() const override { return queue_count_; }
-  void use_queue(int queue) override;
-  void queue_wait(int other) override;
-  void finish_queue(int queue) override;
-  /// Pinned host memory (CL_MEM_ALLOC_HOST_PTR, mapped for its whole life).
-  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes) override;
-  /// Non-blocking writes and reads on the current queue.
-  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
-                    std::size_t bytes) override;
-  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
-                      std::size_t bytes) override;
+  /// allocate_host: pinned memory (CL_MEM_ALLOC_HOST_PTR, mapped for its whole life);
+  /// upload_async / download_async: non-blocking writes and reads on the current queue.
+  PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 

@@ -95,16 +95,9 @@ class VulkanBackend final : public Backend {
 
   /// Runtime::kStreams, or $PORTA_VULKAN_QUEUES (1 to kStreams).
   int queue_count() const override { return queues_; }
-  void use_queue(int queue) override;
-  void queue_wait(int other) override;
-  void finish_queue(int queue) override;
-  /// Mapped host-visible memory the device copies from and to in the queue's batch.
-  std::unique_ptr<HostBuffer> allocate_host(std::size_t bytes) override;
-  /// `src` / `dst` must come from this backend's allocate_host() (BackendError otherwise).
-  void upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer& src, std::size_t src_offset,
-                    std::size_t bytes) override;
-  void download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
-                      std::size_t bytes) override;
+  /// allocate_host: mapped host-visible memory the device copies from and to in the queue's batch;
+  /// upload_async / download_async: `src` / `dst` must come from it (BackendError otherwise).
+  PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
 

@@ -13,16 +13,11 @@
 #include "porta/backend.hpp"
 #include "porta/registry.hpp"
 #include "porta/tables.hpp"
+#include "support/backends.hpp"
 #include "support/test_images.hpp"
 
 namespace porta {
 namespace {
-
-bool available(const std::string& name) {
-  for (const BackendInfo& info : BackendRegistry::instance().list())
-    if (info.name == name) return info.available;
-  return false;
-}
 
 template <typename F>
 std::string message_of(F&& call) {
@@ -91,7 +86,7 @@ std::vector<std::uint8_t> cpu_responses(const Scene& s) {
 class BackendQueues : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
-    if (!available(GetParam())) GTEST_SKIP() << GetParam() << ": no device here (`portaslam backends` says why)";
+    if (!test::backend_available(GetParam())) GTEST_SKIP() << GetParam() << ": no device here (`portaslam backends` says why)";
     backend_ = BackendRegistry::instance().create(GetParam());
   }
   std::unique_ptr<Backend> backend_;

@@ -12,16 +12,11 @@
 #include "porta/frontend.hpp"
 #include "porta/kernel_profile.hpp"
 #include "porta/registry.hpp"
+#include "support/backends.hpp"
 #include "support/test_images.hpp"
 
 namespace porta {
 namespace {
-
-bool available(const std::string& name) {
-  for (const BackendInfo& info : BackendRegistry::instance().list())
-    if (info.name == name) return info.available;
-  return false;
-}
 
 std::unique_ptr<Backend> make(const std::string& name, bool profile) {
   BackendOptions options;
@@ -39,7 +34,7 @@ class KernelProfiling : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(KernelProfiling, TimesEveryDispatchOfAFrameWithoutChangingItsBytes) {
   const std::string name = GetParam();
-  if (!available(name)) GTEST_SKIP() << name << ": no device here (`portaslam backends` says why)";
+  if (!test::backend_available(name)) GTEST_SKIP() << name << ": no device here (`portaslam backends` says why)";
   const Image left = test::textured_image(320, 240, 7), right = test::shifted_right(left, 6);
   auto profiled = make(name, true), plain = make(name, false);
   Frontend with(*profiled, FrontendSettings{}, 320, 240), without(*plain, FrontendSettings{}, 320, 240);

@@ -290,3 +290,15 @@ class Backend {
                         const ::porta::Buffer& queries, const ::porta::Buffer& query_descriptors,     \
                         int num_queries, const std::vector<std::int32_t>& scales_q16,                 \
                         ::porta::Buffer& results) override
+
+/// Declares, inside a backend class with several queues, the overrides of the queue and
+/// asynchronous-transfer calls (queue_count() aside, which each defines inline).
+#define PORTA_BACKEND_QUEUE_OVERRIDES                                                                 \
+  void use_queue(int queue) override;                                                                 \
+  void queue_wait(int other) override;                                                                \
+  void finish_queue(int queue) override;                                                              \
+  std::unique_ptr<::porta::HostBuffer> allocate_host(std::size_t bytes) override;                     \
+  void upload_async(::porta::Buffer& dst, std::size_t dst_offset, const ::porta::HostBuffer& src,     \
+                    std::size_t src_offset, std::size_t bytes) override;                              \
+  void download_async(const ::porta::Buffer& src, std::size_t src_offset, ::porta::HostBuffer& dst,   \
+                      std::size_t dst_offset, std::size_t bytes) override
