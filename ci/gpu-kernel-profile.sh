@@ -54,6 +54,7 @@ if [ -n "${PORTA_PROFILE_CELLS:-}" ]; then  # e.g. "320x240-1 752x480-8": only t
   for cell in "${cells[@]}"; do
     case " $PORTA_PROFILE_CELLS " in *" ${cell%%:*} "*) kept+=("$cell") ;; esac
   done
+  [ "${#kept[@]}" -gt 0 ] || { say "PORTA_PROFILE_CELLS='$PORTA_PROFILE_CELLS' names no cell (1242x375-8, 752x480-8, 320x240-1)"; exit 1; }
   cells=("${kept[@]}")
 fi
 for cell in "${cells[@]}"; do

@@ -169,19 +169,20 @@ inline int match_left_keypoint(__global const uchar* left_pyramid, __global cons
                       max_hamming, disparity, right_index);
 }
 
+// The arguments of both candidate-search kernels (the host sets them in this order).
+#define STEREO_CANDIDATES_PARAMS                                                                      \
+  __global const uchar *left_pyramid, __global const uchar *right_pyramid, const porta_levels layout,  \
+      __global const porta_keypoint *left, __global const uchar *left_count, const long left_count_offset, \
+      const int left_capacity, __global const uint *left_descriptors, __global const porta_keypoint *right, \
+      __global const uchar *right_count, const long right_count_offset, const int right_capacity,        \
+      __global const uint *right_descriptors, const porta_level_ints scales, const porta_level_ints radius, \
+      const int min_disparity, const int max_disparity, const int max_hamming, __global int *matches,    \
+      __global int *sads, __global uint *histogram
+
 // DESIGN.md §3.9 step a-e, stereo_match_candidates: one work-item per left list slot; writes matches[i]
 // ({-1, -1} for none) and its SAD (-1 for none) into sads[i], and counts each accepted SAD in the
 // median histogram (atomic increments: the counts do not depend on the order).
-__kernel void stereo_match_candidates(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
-                                      const porta_levels layout, __global const porta_keypoint* left,
-                                      __global const uchar* left_count, const long left_count_offset,
-                                      const int left_capacity, __global const uint* left_descriptors,
-                                      __global const porta_keypoint* right, __global const uchar* right_count,
-                                      const long right_count_offset, const int right_capacity,
-                                      __global const uint* right_descriptors, const porta_level_ints scales,
-                                      const porta_level_ints radius, const int min_disparity,
-                                      const int max_disparity, const int max_hamming, __global int* matches,
-                                      __global int* sads, __global uint* histogram) {
+__kernel void stereo_match_candidates(STEREO_CANDIDATES_PARAMS) {
   const int i = (int)get_global_id(0);
   if (i >= match_list_count(left_count, left_count_offset, left_capacity)) return;
   const int num_right = match_list_count(right_count, right_count_offset, right_capacity);
@@ -196,16 +197,7 @@ __kernel void stereo_match_candidates(__global const uchar* left_pyramid, __glob
 // with stride 64 and reduce their (distance << 32) | index minima through local memory, then
 // work-item 0 does steps c-e. The same bytes as stereo_match_candidates.
 __kernel __attribute__((reqd_work_group_size(64, 1, 1)))
-void stereo_match_candidates_group(__global const uchar* left_pyramid, __global const uchar* right_pyramid,
-                                   const porta_levels layout, __global const porta_keypoint* left,
-                                   __global const uchar* left_count, const long left_count_offset,
-                                   const int left_capacity, __global const uint* left_descriptors,
-                                   __global const porta_keypoint* right, __global const uchar* right_count,
-                                   const long right_count_offset, const int right_capacity,
-                                   __global const uint* right_descriptors, const porta_level_ints scales,
-                                   const porta_level_ints radius, const int min_disparity,
-                                   const int max_disparity, const int max_hamming, __global int* matches,
-                                   __global int* sads, __global uint* histogram) {
+void stereo_match_candidates_group(STEREO_CANDIDATES_PARAMS) {
   __local ulong best[64];
   const int i = (int)get_group_id(0);
   const int lid = (int)get_local_id(0);

@@ -99,6 +99,10 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to 8, got 'two'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_device_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_DEVICE_QUEUES=two)
+    porta_cli_test(bench_vulkan_params_memory_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_PARAMS_MEMORY must be host or device, got 'bar'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_params_memory_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_PARAMS_MEMORY=bar)
   endif()
   porta_cli_test(bench_frames_zero EXIT 1
                  STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
