@@ -251,7 +251,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
 
   // Per-stage timing.
-  std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, ba_ns;
+  std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, triangulate_ns, fuse_ns, ba_ns;
   std::vector<std::int64_t> map_wait_ns, motion_ns, track_local_ns, keyframe_ns;
   const bool stereo_separated = system.frontend_in_flight() == 1;  // pipelined frames are not profiled
   for (const slam::FrameTimes& t : system.frame_times()) {
@@ -268,6 +268,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
   for (const slam::MappingTimes& t : system.mapper().times()) {
     local_map_ns.push_back(t.total_ns - t.bundle_adjustment_ns);
+    triangulate_ns.push_back(t.triangulate_ns);
+    fuse_ns.push_back(t.fuse_ns);
     ba_ns.push_back(t.bundle_adjustment_ns);
   }
   // In the order printed and written.
@@ -276,6 +278,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"tracking", quantiles(tracking_ns)},         {"map lock wait", quantiles(map_wait_ns)},
       {"track motion", quantiles(motion_ns)},       {"track local map", quantiles(track_local_ns)},
       {"keyframe", quantiles(keyframe_ns)},         {"local map", quantiles(local_map_ns)},
+      {"triangulation", quantiles(triangulate_ns)}, {"fusion", quantiles(fuse_ns)},
       {"BA", quantiles(ba_ns)},                     {"frame", quantiles(frame_ns)}};
   summary.median_frame_ms = stages.back().second.median_ms;
   if (options.rate > 0.0 && summary.frames > 1) {
@@ -302,7 +305,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     std::printf("%-17s %s\n", name.c_str(), format_ms(q).c_str());
   }
   std::printf("(frontend includes stereo matching%s;\n tracking = map lock wait + track motion + track local map + keyframe;"
-              " frame = frontend + tracking%s; local map and BA are per keyframe)\n",
+              " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe)\n",
               stereo_separated ? "" : " and is the host's share: the device works on the next pair while one is tracked",
               options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes" : "");
   if (options.rate > 0.0) {

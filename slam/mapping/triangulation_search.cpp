@@ -1,9 +1,10 @@
 // Local mapping step 3: new map points by triangulation (after ORB-SLAM2's CreateNewMapPoints).
 //
 // There is no bag-of-words vocabulary, so the candidate matches between two keyframes come from a
-// brute-force search of the unmatched features constrained by the epipolar geometry: a feature of
-// the neighbour is a candidate when it lies within the 95% (1 DoF, 3.84 sigma^2) band around the
-// epipolar line of the keyframe's feature. The best candidate must be within TH_LOW and clearly
+// search of the unmatched features constrained by the epipolar geometry: a feature of the neighbour
+// is a candidate when it lies within the 95% (1 DoF, 3.84 sigma^2) band around the epipolar line of
+// the keyframe's feature. An index of the neighbour's features around the epipole
+// (epipolar_band.hpp) finds those without scanning them all. The best candidate must be within TH_LOW and clearly
 // better than the second (ratio 0.6); a neighbour feature keeps only its best partner; the
 // rotation-consistency histogram removes matches whose orientation change disagrees with most.
 //
@@ -18,6 +19,7 @@
 #include <optional>
 #include <vector>
 
+#include "epipolar_band.hpp"
 #include "mapping_steps.hpp"
 #include "porta/slam/feature_matching.hpp"
 #include "porta/slam/optim/chi2.hpp"
@@ -64,40 +66,58 @@ Eigen::Matrix3d fundamental_matrix(const SE3& T_1w, const SE3& T_2w, const Stere
   return K_inv.transpose() * skew(T_12.translation()) * T_12.linear() * K_inv;
 }
 
-/// The free features of keyframe 2 laid out for the epipolar scan: everything the inner loop
-/// tests, computed once per keyframe pair instead of once per feature of keyframe 1.
+/// The free features of keyframe 2 laid out for the epipolar scan, in the index's order (by ring
+/// and direction around the epipole): everything the inner loop tests, computed once per keyframe
+/// pair instead of once per feature of keyframe 1.
 struct EpipolarCandidates {
   std::vector<double> u, v;
-  std::vector<double> band;           ///< chi2 (1 DoF, 95%) x sigma^2 of the feature's level
+  std::vector<double> band;                     ///< chi2 (1 DoF, 95%) x sigma^2 of the feature's level
   std::vector<std::uint8_t> near_epipole_mono;  ///< no stereo depth and within 10 px x scale of the epipole
   std::vector<int> feature;
+  EpipolarPencilIndex index;
 
   EpipolarCandidates(const FrameFeatures& f2, const std::vector<int>& free2, const Eigen::Vector2d& epipole2,
-                     const ScalePyramid& pyramid) {
+                     const ScalePyramid& pyramid)
+      : index(make_index(f2, free2, epipole2, pyramid)) {
     const std::size_t n = free2.size();
     u.resize(n);
     v.resize(n);
     band.resize(n);
     near_epipole_mono.resize(n);
-    feature = free2;
-    for (std::size_t j = 0; j < n; ++j) {
-      const auto s2 = static_cast<std::size_t>(free2[j]);
-      u[j] = f2.uv[s2].x();
-      v[j] = f2.uv[s2].y();
-      band[j] = kEpipolarChi2 * pyramid.sigma2[f2.level[s2]];
-      const double dx = epipole2.x() - u[j], dy = epipole2.y() - v[j];
-      near_epipole_mono[j] = !f2.has_depth(s2) && dx * dx + dy * dy < 100.0 * pyramid.scale[f2.level[s2]];
+    feature.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto s2 = static_cast<std::size_t>(free2[static_cast<std::size_t>(index.order()[k])]);
+      feature[k] = static_cast<int>(s2);
+      u[k] = f2.uv[s2].x();
+      v[k] = f2.uv[s2].y();
+      band[k] = kEpipolarChi2 * pyramid.sigma2[f2.level[s2]];
+      const double dx = epipole2.x() - u[k], dy = epipole2.y() - v[k];
+      near_epipole_mono[k] = !f2.has_depth(s2) && dx * dx + dy * dy < 100.0 * pyramid.scale[f2.level[s2]];
     }
+  }
+
+  static EpipolarPencilIndex make_index(const FrameFeatures& f2, const std::vector<int>& free2,
+                                        const Eigen::Vector2d& epipole2, const ScalePyramid& pyramid) {
+    std::vector<double> u, v;
+    double max_band = 0.0;
+    for (const int i2 : free2) {
+      const auto s2 = static_cast<std::size_t>(i2);
+      u.push_back(f2.uv[s2].x());
+      v.push_back(f2.uv[s2].y());
+      max_band = std::max(max_band, kEpipolarChi2 * pyramid.sigma2[f2.level[s2]]);
+    }
+    return EpipolarPencilIndex(u, v, epipole2, std::sqrt(max_band));
   }
 };
 
-/// Epipolar-constrained brute-force search between the free features of two keyframes.
+/// Epipolar-constrained search between the free features of two keyframes. The candidates near
+/// the band are visited in the index's order; the result does not depend on that order (ties of
+/// the best distance go to the smaller feature index, as in a scan in index order).
 std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::vector<int>& free1,
                                             const FrameFeatures& f2, const std::vector<int>& free2,
                                             const Eigen::Matrix3d& F12, const Eigen::Vector2d& epipole2,
                                             const ScalePyramid& pyramid) {
   const EpipolarCandidates candidates(f2, free2, epipole2, pyramid);
-  const std::size_t n2 = free2.size();
   // Best partner of each feature of keyframe 2 (index into `matches`, -1 none): uniqueness.
   std::vector<int> taken_by(f2.size(), -1);
   std::vector<Match> matches;
@@ -109,21 +129,23 @@ std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::
     // Without stereo depth on either side, a ray nearly along the baseline has no usable depth.
     const bool skip_near_epipole = !f1.has_depth(s1);
     int best = 256, second = 256, best_i2 = -1;
-    for (std::size_t j = 0; j < n2; ++j) {
-      // Squared distance to the epipolar line within the band (num^2 / |line|^2 < band).
-      const double num = line.x() * candidates.u[j] + line.y() * candidates.v[j] + line.z();
-      if (num * num >= candidates.band[j] * line_norm2) continue;
-      if (skip_near_epipole && candidates.near_epipole_mono[j] != 0) continue;
-      const int i2 = candidates.feature[j];
-      const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
-      if (distance < best) {
-        second = best;
-        best = distance;
-        best_i2 = i2;
-      } else if (distance < second) {
-        second = distance;
+    candidates.index.visit_band(line, [&](int first, int last) {
+      for (auto k = static_cast<std::size_t>(first); k < static_cast<std::size_t>(last); ++k) {
+        // Squared distance to the epipolar line within the band (num^2 / |line|^2 < band).
+        const double num = line.x() * candidates.u[k] + line.y() * candidates.v[k] + line.z();
+        if (num * num >= candidates.band[k] * line_norm2) continue;
+        if (skip_near_epipole && candidates.near_epipole_mono[k] != 0) continue;
+        const int i2 = candidates.feature[k];
+        const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
+        if (distance < best || (distance == best && i2 < best_i2)) {
+          second = best;
+          best = distance;
+          best_i2 = i2;
+        } else if (distance < second) {
+          second = distance;
+        }
       }
-    }
+    });
     if (best_i2 < 0 || best > kHammingLow || !(best < kMatchRatio * second)) continue;
     int& owner = taken_by[static_cast<std::size_t>(best_i2)];
     if (owner >= 0) {

@@ -1,0 +1,133 @@
+// EpipolarPencilIndex; see epipolar_band.hpp.
+//
+// Why a window of asin(w / r) suffices: let the query line make distance d_e to the epipole and
+// have direction phi. A point at radius r and direction theta from the epipole lies at
+// r |sin(theta - phi)| from the parallel to the line through the epipole, so at least that minus
+// d_e from the line itself. Within w of the line therefore means |sin(theta - phi)| < (w + d_e) / r
+// <= (w + d_e) / r_ring for every point of a ring with inner radius r_ring. Directions are taken
+// modulo pi (a line has no sense), and the reach adds one pixel so that rounding only widens it.
+#include "epipolar_band.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace porta::slam::mapping {
+namespace {
+
+constexpr double kRoundingMarginPx = 1.0;
+constexpr double kFarEpipolePx = 1e6;
+constexpr double kAngleMargin = 1e-9;
+/// Inner radii of the rings, px; the first ring is always visited whole.
+constexpr double kRingRadii[] = {0.0, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0};
+static_assert(std::size(kRingRadii) == EpipolarPencilIndex::kRings);
+
+/// The direction of (x, y) modulo pi, in [0, pi).
+double direction_mod_pi(double x, double y) {
+  double angle = std::atan2(y, x);
+  if (angle < 0.0) angle += std::numbers::pi;
+  if (angle >= std::numbers::pi) angle -= std::numbers::pi;
+  return angle;
+}
+
+}  // namespace
+
+EpipolarPencilIndex::EpipolarPencilIndex(std::span<const double> u, std::span<const double> v,
+                                         const Eigen::Vector2d& epipole, double max_half_width_px)
+    : epipole_(epipole), reach_px_(max_half_width_px + kRoundingMarginPx) {
+  if (u.size() != v.size()) {
+    throw std::invalid_argument("EpipolarPencilIndex: " + std::to_string(u.size()) + " u values but " +
+                                std::to_string(v.size()) + " v values");
+  }
+  if (!std::isfinite(max_half_width_px) || max_half_width_px < 0.0) {
+    throw std::invalid_argument("EpipolarPencilIndex: the band half-width must be finite and >= 0, got " +
+                                std::to_string(max_half_width_px));
+  }
+  const std::size_t n = u.size();
+  for (std::size_t j = 0; j < n; ++j) {
+    if (!std::isfinite(u[j]) || !std::isfinite(v[j])) {
+      throw std::invalid_argument("EpipolarPencilIndex: point " + std::to_string(j) + " is not finite");
+    }
+  }
+  order_.resize(n);
+  for (std::size_t j = 0; j < n; ++j) order_[j] = static_cast<int>(j);
+  pencil_ = epipole.allFinite() && epipole.cwiseAbs().maxCoeff() <= kFarEpipolePx;
+  if (!pencil_) return;  // band_ranges() gives all points, in index order
+
+  // Ring, then direction, then index: a total order, so the layout does not depend on the sort.
+  constexpr std::size_t rings = kRings;
+  std::vector<int> ring(n);
+  std::vector<double> direction(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const double dx = u[j] - epipole.x(), dy = v[j] - epipole.y();
+    const double radius = std::hypot(dx, dy);
+    ring[j] = static_cast<int>(std::upper_bound(std::begin(kRingRadii), std::end(kRingRadii), radius) -
+                               std::begin(kRingRadii)) - 1;
+    direction[j] = direction_mod_pi(dx, dy);
+  }
+  std::sort(order_.begin(), order_.end(), [&](int a, int b) {
+    const auto sa = static_cast<std::size_t>(a), sb = static_cast<std::size_t>(b);
+    if (ring[sa] != ring[sb]) return ring[sa] < ring[sb];
+    if (direction[sa] != direction[sb]) return direction[sa] < direction[sb];
+    return a < b;
+  });
+  direction_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto j = static_cast<std::size_t>(order_[k]);
+    direction_[k] = direction[j];
+    ++ring_start_[static_cast<std::size_t>(ring[j]) + 1];
+  }
+  for (std::size_t r = 1; r <= rings; ++r) ring_start_[r] += ring_start_[r - 1];
+}
+
+int EpipolarPencilIndex::band_ranges(const Eigen::Vector3d& line, Ranges& ranges) const {
+  int count = 0;
+  const auto add = [&](int first, int last) {
+    if (first < last) ranges[static_cast<std::size_t>(count++)] = {first, last};
+  };
+  if (order_.empty() || !line.allFinite()) return 0;
+  const double a = line.x(), b = line.y(), c = line.z();
+  const double norm = std::hypot(a, b);
+  if (!(norm > 0.0)) return 0;
+  if (!pencil_) {
+    add(0, static_cast<int>(order_.size()));
+    return count;
+  }
+  const double epipole_distance = std::abs(a * epipole_.x() + b * epipole_.y() + c) / norm;
+  const double reach = reach_px_ + epipole_distance;
+  const double line_direction = direction_mod_pi(b, -a);
+  const auto from = [&](double angle, int begin, int end) {
+    return static_cast<int>(std::lower_bound(direction_.begin() + begin, direction_.begin() + end, angle) -
+                            direction_.begin());
+  };
+  const auto to = [&](double angle, int begin, int end) {
+    return static_cast<int>(std::upper_bound(direction_.begin() + begin, direction_.begin() + end, angle) -
+                            direction_.begin());
+  };
+  constexpr double pi = std::numbers::pi;
+  for (std::size_t r = 0; r < kRings; ++r) {
+    const int begin = ring_start_[r], end = ring_start_[r + 1];
+    if (begin == end) continue;
+    const double half = reach < kRingRadii[r] ? std::asin(reach / kRingRadii[r]) + kAngleMargin : pi;
+    if (2.0 * half >= pi) {  // the window covers every direction
+      add(begin, end);
+      continue;
+    }
+    // The window [direction - half, direction + half] modulo pi: one range, or two when it wraps.
+    const double low = line_direction - half, high = line_direction + half;
+    if (low < 0.0) {
+      add(begin, to(high, begin, end));
+      add(from(low + pi, begin, end), end);
+    } else if (high >= pi) {
+      add(begin, to(high - pi, begin, end));
+      add(from(low, begin, end), end);
+    } else {
+      add(from(low, begin, end), to(high, begin, end));
+    }
+  }
+  return count;
+}
+
+}  // namespace porta::slam::mapping
