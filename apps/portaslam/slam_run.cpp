@@ -75,6 +75,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.loop_closing = options.loop_closing && !options.localization;
   settings.localization_only = options.localization;
   settings.global_bundle_adjustment = options.global_ba;
+  settings.mapping_threads = options.mapping_threads;
   settings.validate();
   return settings;
 }
@@ -427,6 +428,8 @@ std::string slam_run_options_usage() {
          "  --backend NAME      cpu (default), cuda, vulkan or opencl\n"
          "  --device D          device index or name substring for a GPU backend\n"
          "  --threads N         cpu backend worker threads (default: all)\n"
+         "  --mapping-threads N local mapping's threads for triangulation (default 0: half the\n"
+         "                      hardware threads, at most 8, with 8 or more; else 1); same map\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
@@ -460,6 +463,8 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.device = cursor.value(option);
   } else if (option == "--threads") {
     options.threads = parse_threads(option, cursor.value(option));
+  } else if (option == "--mapping-threads") {
+    options.mapping_threads = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxMappingThreads);
   } else if (option == "--mode") {
     const std::string mode = cursor.value(option);
     if (mode == "realtime") {

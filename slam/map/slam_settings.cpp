@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace porta::slam {
 
@@ -37,7 +38,16 @@ void SlamSettings::validate() const {
   require(min_tracked_inliers >= 3, "min_tracked_inliers must be >= 3, got " + std::to_string(min_tracked_inliers));
   require(max_frames_between_keyframes >= 1,
           "max_frames_between_keyframes must be >= 1, got " + std::to_string(max_frames_between_keyframes));
+  require(mapping_threads >= 0 && mapping_threads <= kMaxMappingThreads,
+          "mapping_threads must be in [0, " + std::to_string(kMaxMappingThreads) + "] (0 = by the machine), got " +
+              std::to_string(mapping_threads));
   place_recognition.validate();
+}
+
+int SlamSettings::resolved_mapping_threads() const {
+  if (mapping_threads > 0) return mapping_threads;
+  const int hardware = static_cast<int>(std::thread::hardware_concurrency());
+  return hardware >= 8 ? std::min(8, hardware / 2) : 1;
 }
 
 }  // namespace porta::slam

@@ -16,6 +16,7 @@
 #include <sched.h>
 #endif
 
+#include "cpu/thread_pool.hpp"
 #include "mapping_steps.hpp"
 #include "porta/slam/elapsed.hpp"
 
@@ -27,7 +28,11 @@ using Clock = std::chrono::steady_clock;
 }  // namespace
 
 LocalMapper::LocalMapper(const SlamSettings& settings, Map& map)
-    : settings_(settings), pyramid_(settings.frontend.levels, settings.frontend.scale_factor), map_(map) {}
+    : settings_(settings), pyramid_(settings.frontend.levels, settings.frontend.scale_factor), map_(map) {
+  if (const int threads = settings_.resolved_mapping_threads(); threads > 1) {
+    pool_ = std::make_unique<cpu::ThreadPool>(threads);
+  }
+}
 
 LocalMapper::~LocalMapper() { stop(); }
 
@@ -173,7 +178,7 @@ void LocalMapper::process(KeyFrame* keyframe) {
       mapping::triangulate_new_points(map_, keyframe, settings_, pyramid_, recent_points_, [this] {
         pause_point();
         return queued_keyframes() > 0;
-      }));
+      }, pool_.get()));
   times.triangulate_ns = work_ns();
 
   if (queued_keyframes() == 0) {

@@ -12,6 +12,7 @@
 #include <set>
 #include <vector>
 
+#include "cpu/thread_pool.hpp"
 #include "porta/slam/frame.hpp"
 #include "porta/slam/map.hpp"
 #include "porta/slam/optim/local_bundle_adjustment.hpp"
@@ -46,10 +47,12 @@ int cull_recent_points(std::vector<MapPoint*>& recent, std::uint64_t current_key
 
 /// Step 3 (locks the map itself): creates points from matches between the keyframe's unmatched
 /// features and those of its best covisible keyframes; appends them to `recent`. `should_stop` is
-/// asked before every neighbour but the first (more keyframes waiting). Returns the count created.
+/// asked before every neighbour but the first (more keyframes waiting). With a `pool` of more
+/// than one thread, the epipolar searches of all neighbours run first, in parallel; the points
+/// are the same. Returns the count created.
 int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                            const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
-                           const std::function<bool()>& should_stop);
+                           const std::function<bool()>& should_stop, cpu::ThreadPool* pool = nullptr);
 
 /// Step 4 (caller holds the lock): ORB-SLAM2's SearchInNeighbors. Returns the number of points
 /// merged into another (Map::replace).

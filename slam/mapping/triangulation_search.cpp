@@ -19,6 +19,7 @@
 #include <optional>
 #include <vector>
 
+#include "cpu/thread_pool.hpp"
 #include "epipolar_band.hpp"
 #include "mapping_steps.hpp"
 #include "porta/slam/feature_matching.hpp"
@@ -110,25 +111,47 @@ struct EpipolarCandidates {
   }
 };
 
-/// Epipolar-constrained search between the free features of two keyframes. The candidates near
-/// the band are visited in the index's order; the result does not depend on that order (ties of
-/// the best distance go to the smaller feature index, as in a scan in index order).
-std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::vector<int>& free1,
-                                            const FrameFeatures& f2, const std::vector<int>& free2,
-                                            const Eigen::Matrix3d& F12, const Eigen::Vector2d& epipole2,
-                                            const ScalePyramid& pyramid) {
-  const EpipolarCandidates candidates(f2, free2, epipole2, pyramid);
-  // Best partner of each feature of keyframe 2 (index into `matches`, -1 none): uniqueness.
-  std::vector<int> taken_by(f2.size(), -1);
-  std::vector<Match> matches;
-  for (const int i1 : free1) {
+/// The best and second-best Hamming distance of one feature of keyframe 1 among the candidates
+/// in its epipolar band, and the best one's feature (-1: none).
+struct BestCandidate {
+  int i2 = -1;
+  int best = 256;
+  int second = 256;
+};
+
+/// One keyframe pair's search set-up: the poses it was made from, the free features of keyframe 2
+/// in the band index, and the fundamental matrix.
+struct PairSearch {
+  SE3 T_1w, T_2w;
+  std::vector<int> free2;
+  Eigen::Matrix3d F12;
+  EpipolarCandidates candidates;
+
+  PairSearch(const SE3& T_1w_in, const SE3& T_2w_in, std::vector<int> free2_in, const FrameFeatures& f2,
+             const StereoCamera& camera, const ScalePyramid& pyramid)
+      : T_1w(T_1w_in),
+        T_2w(T_2w_in),
+        free2(std::move(free2_in)),
+        F12(fundamental_matrix(T_1w, T_2w, camera)),
+        candidates(f2, free2, epipole_in_2(T_1w, T_2w, camera), pyramid) {}
+
+  /// The image in keyframe 2 of keyframe 1's centre (far out when it lies in keyframe 2's focal plane).
+  static Eigen::Vector2d epipole_in_2(const SE3& T_1w, const SE3& T_2w, const StereoCamera& camera) {
+    const Eigen::Vector3d c1_in_2 = T_2w * T_1w.inverse().translation();
+    if (std::abs(c1_in_2.z()) <= 1e-12) return {-1e9, -1e9};
+    return {camera.fx * c1_in_2.x() / c1_in_2.z() + camera.cx, camera.fy * c1_in_2.y() / c1_in_2.z() + camera.cy};
+  }
+
+  /// The search for feature i1 of keyframe 1; it depends on nothing else, so features may be
+  /// searched in any order, on any thread.
+  BestCandidate search(const FrameFeatures& f1, const FrameFeatures& f2, int i1) const {
     const auto s1 = static_cast<std::size_t>(i1);
+    BestCandidate result;
     const Eigen::Vector3d line = F12.transpose() * Eigen::Vector3d(f1.uv[s1].x(), f1.uv[s1].y(), 1.0);
     const double line_norm2 = line.x() * line.x() + line.y() * line.y();
-    if (!(line_norm2 > 0.0)) continue;
+    if (!(line_norm2 > 0.0)) return result;
     // Without stereo depth on either side, a ray nearly along the baseline has no usable depth.
     const bool skip_near_epipole = !f1.has_depth(s1);
-    int best = 256, second = 256, best_i2 = -1;
     candidates.index.visit_band(line, [&](int first, int last) {
       for (auto k = static_cast<std::size_t>(first); k < static_cast<std::size_t>(last); ++k) {
         // Squared distance to the epipolar line within the band (num^2 / |line|^2 < band).
@@ -137,24 +160,39 @@ std::vector<Match> search_for_triangulation(const FrameFeatures& f1, const std::
         if (skip_near_epipole && candidates.near_epipole_mono[k] != 0) continue;
         const int i2 = candidates.feature[k];
         const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
-        if (distance < best || (distance == best && i2 < best_i2)) {
-          second = best;
-          best = distance;
-          best_i2 = i2;
-        } else if (distance < second) {
-          second = distance;
+        if (distance < result.best || (distance == result.best && i2 < result.i2)) {
+          result.second = result.best;
+          result.best = distance;
+          result.i2 = i2;
+        } else if (distance < result.second) {
+          result.second = distance;
         }
       }
     });
-    if (best_i2 < 0 || best > kHammingLow || !(best < kMatchRatio * second)) continue;
-    int& owner = taken_by[static_cast<std::size_t>(best_i2)];
+    return result;
+  }
+};
+
+/// The matches of the epipolar search: each feature of `free1` (ascending) takes its best
+/// candidate when within TH_LOW and below ratio x the second; a feature of keyframe 2 keeps its
+/// closest partner; then the rotation histogram. `best_of(i1)` gives the search's result.
+template <class BestOf>
+std::vector<Match> resolve_matches(const FrameFeatures& f1, const std::vector<int>& free1, const FrameFeatures& f2,
+                                   BestOf&& best_of) {
+  // Best partner of each feature of keyframe 2 (index into `matches`, -1 none): uniqueness.
+  std::vector<int> taken_by(f2.size(), -1);
+  std::vector<Match> matches;
+  for (const int i1 : free1) {
+    const BestCandidate c = best_of(i1);
+    if (c.i2 < 0 || c.best > kHammingLow || !(c.best < kMatchRatio * c.second)) continue;
+    int& owner = taken_by[static_cast<std::size_t>(c.i2)];
     if (owner >= 0) {
       Match& previous = matches[static_cast<std::size_t>(owner)];
-      if (previous.distance <= best) continue;  // ties keep the smaller feature index
-      previous = {i1, best_i2, best};
+      if (previous.distance <= c.best) continue;  // ties keep the smaller feature index
+      previous = {i1, c.i2, c.best};
     } else {
       owner = static_cast<int>(matches.size());
-      matches.push_back({i1, best_i2, best});
+      matches.push_back({i1, c.i2, c.best});
     }
   }
   keep_consistent_rotations(matches, f1, f2);
@@ -234,11 +272,64 @@ std::optional<Eigen::Vector3d> triangulate_match(const StereoCamera& camera, con
   return point;
 }
 
+/// With a pool: every neighbour's search set up from one snapshot of the map, and every free
+/// feature of the keyframe searched in every neighbour at once, in parallel. Each search depends on
+/// its pair's poses and free features only, so the sequential pass below takes these results
+/// wherever its own snapshot of the pair is the same, and the matches are those it would find.
+struct SearchedAhead {
+  std::vector<std::optional<PairSearch>> pairs;          // per neighbour; none: short baseline or bad
+  std::vector<std::vector<BestCandidate>> best;          // per neighbour, per feature of keyframe 1
+  std::vector<std::uint8_t> searched;                    // per feature of keyframe 1: in `best`
+};
+
+SearchedAhead search_ahead(Map& map, KeyFrame* keyframe, const std::vector<KeyFrame*>& neighbours,
+                           const StereoCamera& camera, const ScalePyramid& pyramid, cpu::ThreadPool& pool) {
+  const std::size_t count = neighbours.size();
+  SearchedAhead ahead;
+  ahead.pairs.resize(count);
+  ahead.best.resize(count);
+  SE3 T_1w;
+  std::vector<int> free1;
+  std::vector<SE3> T_2w(count);
+  std::vector<std::vector<int>> free2(count);
+  std::vector<std::uint8_t> usable(count, 0);
+  {
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad) return ahead;
+    T_1w = keyframe->T_cw;
+    free1 = free_features(*keyframe);
+    for (std::size_t n = 0; n < count; ++n) {
+      if (neighbours[n]->bad) continue;
+      T_2w[n] = neighbours[n]->T_cw;
+      free2[n] = free_features(*neighbours[n]);
+      usable[n] = 1;
+    }
+  }
+  const FrameFeatures& f1 = *keyframe->features;
+  const Eigen::Vector3d center1 = T_1w.inverse().translation();
+  pool.parallel_for(0, static_cast<std::int64_t>(count), [&](std::int64_t i) {
+    const auto n = static_cast<std::size_t>(i);
+    if (usable[n] == 0 || (T_2w[n].inverse().translation() - center1).norm() < camera.baseline_m) return;
+    ahead.pairs[n].emplace(T_1w, T_2w[n], std::move(free2[n]), *neighbours[n]->features, camera, pyramid);
+    ahead.best[n].resize(f1.size());
+  });
+  const auto per_pair = static_cast<std::int64_t>(free1.size());
+  pool.parallel_for(0, static_cast<std::int64_t>(count) * per_pair, [&](std::int64_t i) {
+    const auto n = static_cast<std::size_t>(i / per_pair);
+    if (!ahead.pairs[n]) return;
+    const int i1 = free1[static_cast<std::size_t>(i % per_pair)];
+    ahead.best[n][static_cast<std::size_t>(i1)] = ahead.pairs[n]->search(f1, *neighbours[n]->features, i1);
+  });
+  ahead.searched.assign(f1.size(), 0);
+  for (const int i1 : free1) ahead.searched[static_cast<std::size_t>(i1)] = 1;
+  return ahead;
+}
+
 }  // namespace
 
 int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                            const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
-                           const std::function<bool()>& should_stop) {
+                           const std::function<bool()>& should_stop, cpu::ThreadPool* pool) {
   const StereoCamera& camera = settings.camera;
   std::vector<KeyFrame*> neighbours;
   {
@@ -247,6 +338,8 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
     neighbours = keyframe->best_covisibles(kNeighbours);
   }
   const FrameFeatures& f1 = *keyframe->features;
+  SearchedAhead ahead;
+  if (pool != nullptr && pool->size() > 1) ahead = search_ahead(map, keyframe, neighbours, camera, pyramid, *pool);
   int created = 0;
   for (std::size_t n = 0; n < neighbours.size(); ++n) {
     if (n > 0 && should_stop && should_stop()) break;
@@ -269,14 +362,16 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
     if ((center2 - center1).norm() < camera.baseline_m) continue;
 
     const FrameFeatures& f2 = *other->features;
-    const Eigen::Vector3d c1_in_2 = T_2w * center1;
-    Eigen::Vector2d epipole2(-1e9, -1e9);
-    if (std::abs(c1_in_2.z()) > 1e-12) {
-      epipole2 = {camera.fx * c1_in_2.x() / c1_in_2.z() + camera.cx,
-                  camera.fy * c1_in_2.y() / c1_in_2.z() + camera.cy};
-    }
-    const std::vector<Match> matches = search_for_triangulation(
-        f1, free1, f2, free2, fundamental_matrix(T_1w, T_2w, camera), epipole2, pyramid);
+    // The search made ahead serves when it was made from this same snapshot of the pair.
+    const PairSearch* pair = n < ahead.pairs.size() && ahead.pairs[n] ? &*ahead.pairs[n] : nullptr;
+    const bool ahead_serves = pair != nullptr && pair->T_1w.matrix() == T_1w.matrix() &&
+                              pair->T_2w.matrix() == T_2w.matrix() && pair->free2 == free2;
+    std::optional<PairSearch> here;
+    if (!ahead_serves) pair = &here.emplace(T_1w, T_2w, std::move(free2), f2, camera, pyramid);
+    const std::vector<Match> matches = resolve_matches(f1, free1, f2, [&](int i1) {
+      const auto s1 = static_cast<std::size_t>(i1);
+      return ahead_serves && ahead.searched[s1] != 0 ? ahead.best[n][s1] : pair->search(f1, f2, i1);
+    });
 
     std::vector<NewPoint> new_points;
     for (const Match& match : matches) {

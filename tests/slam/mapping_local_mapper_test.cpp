@@ -194,6 +194,20 @@ TEST(Mapping, TwoDeterministicRunsGiveBitIdenticalMaps) {
   EXPECT_TRUE(a == b);
 }
 
+TEST(Mapping, ParallelTriangulationGivesTheSameMapAsOneThread) {
+  const SyntheticScene scene{SceneSpec{}};
+  SlamSettings one = test_settings(), three = test_settings();
+  one.mapping_threads = 1;
+  three.mapping_threads = 3;
+  Map map_one, map_three;
+  LocalMapper mapper_one(one, map_one), mapper_three(three, map_three);
+  run_deterministic(scene, scene.true_T_cw, map_one, mapper_one);
+  run_deterministic(scene, scene.true_T_cw, map_three, mapper_three);
+  EXPECT_GT(mapper_one.points_triangulated(), 0u);
+  EXPECT_EQ(mapper_three.points_triangulated(), mapper_one.points_triangulated());
+  EXPECT_TRUE(MapSnapshot(map_one) == MapSnapshot(map_three));
+}
+
 /// Waits until the mapping thread has processed everything queued (queue first, then idle: the
 /// thread clears idle under the queue lock when it takes a keyframe).
 void wait_until_processed(const LocalMapper& mapper) {

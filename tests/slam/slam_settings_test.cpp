@@ -2,6 +2,10 @@
 #if PORTA_SLAM_BUILT
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <string>
+#include <thread>
+
 #include "porta/slam/slam_settings.hpp"
 
 namespace porta::slam {
@@ -36,6 +40,31 @@ TEST(SlamSettings, DefaultSettingsFitTheCamera) {
   EXPECT_EQ(b.frontend.cell_width, 13);
   EXPECT_EQ(b.frontend.stereo_max_disparity, 320);
   EXPECT_NO_THROW(b.validate());
+}
+
+// 0 leaves the count to the machine (1 on a small one, whose cores the frontend needs); a count
+// outside [0, 64] is refused with the setting named.
+TEST(SlamSettings, MappingThreadsAreResolvedAndBounded) {
+  StereoCamera kitti{1242, 375, 718.856, 718.856, 607.19, 185.22, 0.537};
+  SlamSettings s = default_settings(kitti);
+  const int resolved = s.resolved_mapping_threads();
+  EXPECT_GE(resolved, 1);
+  EXPECT_LE(resolved, 8);
+  if (std::thread::hardware_concurrency() < 8) {
+    EXPECT_EQ(resolved, 1);
+  }
+  s.mapping_threads = 5;
+  EXPECT_EQ(s.resolved_mapping_threads(), 5);
+  EXPECT_NO_THROW(s.validate());
+  for (const int bad : {-1, SlamSettings::kMaxMappingThreads + 1}) {
+    s.mapping_threads = bad;
+    try {
+      s.validate();
+      ADD_FAILURE() << "mapping_threads " << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("mapping_threads"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -20,6 +21,10 @@
 #include "porta/slam/frame.hpp"
 #include "porta/slam/map.hpp"
 #include "porta/slam/slam_settings.hpp"
+
+namespace porta::cpu {
+class ThreadPool;
+}
 
 namespace porta::slam {
 
@@ -102,6 +107,7 @@ class LocalMapper {
   bool tracking_busy_ = false;  ///< under queue_mutex_
   std::int64_t paused_ns_ = 0;  ///< time pause_point() waited (mapping thread only)
   std::thread thread_;
+  std::unique_ptr<cpu::ThreadPool> pool_;  ///< settings.resolved_mapping_threads() > 1 only
   std::function<void(KeyFrame*)> keyframe_processed_;
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
   std::vector<MappingTimes> times_;

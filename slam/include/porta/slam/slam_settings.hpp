@@ -46,6 +46,13 @@ struct SlamSettings {
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
   bool mapping_yields_to_tracking = true;
+  /// Threads of local mapping's parallel steps (triangulation's epipolar searches): 0 = one per
+  /// two hardware threads, at most 8, on a machine of 8 hardware threads or more, else 1 (a small
+  /// machine's cores are the frontend's and tracking's). The map is the same for any count.
+  int mapping_threads = 0;
+  static constexpr int kMaxMappingThreads = 64;
+  /// mapping_threads with 0 resolved for this machine.
+  int resolved_mapping_threads() const;
 
   /// Loop closing (loop_closer.hpp): loops are detected, verified and corrected. false: local
   /// mapping only (the place-recognition database is still kept, for relocalisation).
