@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace porta::slam {
 
@@ -175,6 +176,23 @@ std::vector<KeyFrame*> KeyFrame::covisibles_with_weight(int min_weight) const {
 void KeyFrame::erase_connection(KeyFrame* other) { connections.erase(other); }
 
 // ---- Map ------------------------------------------------------------------------------------------
+
+std::unique_lock<std::mutex> Map::lock_first() {
+  first_waiters_.fetch_add(1);
+  std::unique_lock lock(mutex);
+  first_waiters_.fetch_sub(1);
+  return lock;
+}
+
+bool Map::yield_to_waiters(std::unique_lock<std::mutex>& lock) {
+  if (first_waiters_.load() == 0) return false;
+  lock.unlock();
+  // std::mutex is not fair: re-locking at once would often win against the waiter it woke. Wait
+  // until it holds the lock (it stops counting itself once it has it), then queue behind it.
+  while (first_waiters_.load() > 0) std::this_thread::yield();
+  lock.lock();
+  return true;
+}
 
 KeyFrame* Map::add_keyframe(const Frame& frame) {
   keyframes_.push_back(std::make_unique<KeyFrame>(keyframes_.size(), frame));

@@ -72,7 +72,8 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
   return merged;
 }
 
-int fuse_with_neighbours(KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid) {
+int fuse_with_neighbours(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
+                         const SlamSettings& settings, const ScalePyramid& pyramid) {
   if (keyframe->bad) return 0;
   // Targets: the best covisible keyframes and, for each, its own best five (second order).
   std::vector<KeyFrame*> targets;
@@ -90,11 +91,15 @@ int fuse_with_neighbours(KeyFrame* keyframe, const SlamSettings& settings, const
   }
 
   int merged = 0;
-  // The keyframe's points into every target.
+  // The keyframe's points into every target. Between targets a waiting tracker may take the map;
+  // after that, a keyframe that turned bad meanwhile is skipped (the points are checked as used).
   for (KeyFrame* target : targets) {
+    if (map.yield_to_waiters(lock) && keyframe->bad) return merged;
+    if (target->bad) continue;
     const std::vector<MapPoint*> own = keyframe->points;  // copy: fusion rewrites the keyframe's slots
     merged += fuse_points_into(target, own, settings.camera, pyramid);
   }
+  if (map.yield_to_waiters(lock) && keyframe->bad) return merged;
   // The targets' points into the keyframe, each point once, in the order first met.
   std::vector<MapPoint*> candidates;
   std::set<std::uint64_t> candidate_ids;

@@ -184,9 +184,9 @@ void LocalMapper::process(KeyFrame* keyframe) {
   if (queued_keyframes() == 0) {
     begin_step();
     {
-      std::lock_guard lock(map_.mutex);
+      std::unique_lock lock(map_.mutex);
       points_fused_ +=
-          static_cast<std::uint64_t>(mapping::fuse_with_neighbours(keyframe, settings_, pyramid_));
+          static_cast<std::uint64_t>(mapping::fuse_with_neighbours(map_, lock, keyframe, settings_, pyramid_));
     }
     times.fuse_ns = work_ns();
   }

@@ -54,9 +54,11 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
                            const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
                            const std::function<bool()>& should_stop, cpu::ThreadPool* pool = nullptr);
 
-/// Step 4 (caller holds the lock): ORB-SLAM2's SearchInNeighbors. Returns the number of points
-/// merged into another (Map::replace).
-int fuse_with_neighbours(KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid);
+/// Step 4 (`lock` holds Map::mutex): ORB-SLAM2's SearchInNeighbors. Between target keyframes it
+/// hands the lock to a waiting tracker (Map::yield_to_waiters), as ORB-SLAM2's per-object locks
+/// let tracking run beside it. Returns the number of points merged into another (Map::replace).
+int fuse_with_neighbours(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
+                         const SlamSettings& settings, const ScalePyramid& pyramid);
 
 /// Projects `points` into `keyframe` and fuses each with the best-matching feature in a window of
 /// radius_factor * scale of its predicted level (ORB-SLAM2's ORBmatcher::Fuse). Caller holds the

@@ -534,7 +534,7 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   TrackingResult result;
   Frame frame(frame_id, time_s, std::move(features), t.settings.camera);
   const auto wait_start = std::chrono::steady_clock::now();
-  const std::lock_guard<std::mutex> lock(t.map.mutex);
+  const std::unique_lock<std::mutex> lock = t.map.lock_first();  // local mapping's fusion yields to it
   result.map_wait_ns = elapsed_ns(wait_start);
   const auto start = std::chrono::steady_clock::now();
 

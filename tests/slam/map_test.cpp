@@ -4,9 +4,11 @@
 #if PORTA_SLAM_BUILT
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <random>
+#include <thread>
 
 #include "porta/slam/map.hpp"
 #include "porta/tables.hpp"
@@ -187,6 +189,26 @@ TEST(Map, ScaleRangeAndPredictedLevel) {
   EXPECT_EQ(p->predict_level(10.5, pyramid), 2);       // about where it was made: same level
   EXPECT_EQ(p->predict_level(10.0 * 1.44, pyramid), 0);  // farther: finer level
   EXPECT_EQ(p->predict_level(0.01, pyramid), 7);         // clamped to the top
+}
+
+// Local mapping's fusion holds the map for milliseconds; between its steps it hands the lock to a
+// tracker waiting in lock_first() and takes it back once the tracker is done.
+TEST(Map, YieldHandsTheLockToALockFirstWaiterAndTakesItBack) {
+  Map map;
+  std::unique_lock lock(map.mutex);
+  EXPECT_FALSE(map.yield_to_waiters(lock));  // nobody waits: the lock is kept
+  EXPECT_TRUE(lock.owns_lock());
+  std::atomic<bool> tracked{false};
+  std::thread tracker([&] {
+    const std::unique_lock<std::mutex> tracking = map.lock_first();
+    tracked = true;
+  });
+  EXPECT_FALSE(tracked.load());  // it cannot run while the lock is held
+  while (!map.yield_to_waiters(lock)) std::this_thread::yield();
+  EXPECT_TRUE(lock.owns_lock());
+  EXPECT_TRUE(tracked.load());  // it ran in between, and was done before the lock came back
+  tracker.join();
+  EXPECT_FALSE(map.yield_to_waiters(lock));
 }
 
 TEST(FeatureGrid, InAreaMatchesBruteForce) {

@@ -15,6 +15,7 @@
 // so the same input gives the same map and trajectory in the deterministic mode.
 #pragma once
 
+#include <atomic>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -127,6 +128,15 @@ class Map {
   /// while it ran: writing it back would undo the correction.
   std::uint64_t correction_generation = 0;
 
+  /// Takes `mutex` for a thread whose latency counts (tracking): while it waits, long work under
+  /// the lock hands the lock over at its next yield_to_waiters(). Does not need the lock.
+  std::unique_lock<std::mutex> lock_first();
+  /// Called with `lock` (on `mutex`) held, between units of long work (local mapping's fusion):
+  /// when a lock_first() caller waits, releases the lock until that caller has taken it, then
+  /// takes it back, which waits until the caller is done. Returns whether it released the lock:
+  /// then anything read before may have changed. A no-op when nobody waits (deterministic mode).
+  bool yield_to_waiters(std::unique_lock<std::mutex>& lock);
+
   KeyFrame* add_keyframe(const Frame& frame);
   MapPoint* add_point(const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t frame_id);
 
@@ -162,6 +172,7 @@ class Map {
   KeyFrame* keyframe_by_id(std::uint64_t id) const;
 
  private:
+  std::atomic<int> first_waiters_{0};  ///< lock_first() callers waiting for `mutex`
   std::vector<std::unique_ptr<KeyFrame>> keyframes_;  // index = id; null: an id not restored
   std::vector<std::unique_ptr<MapPoint>> points_;     // index = id; null: an id not restored
 };
