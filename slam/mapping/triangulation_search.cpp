@@ -4,7 +4,7 @@
 // search of the unmatched features constrained by the epipolar geometry: a feature of the neighbour
 // is a candidate when it lies within the 95% (1 DoF, 3.84 sigma^2) band around the epipolar line of
 // the keyframe's feature. An index of the neighbour's features around the epipole
-// (epipolar_band.hpp) finds those without scanning them all. The best candidate must be within TH_LOW and clearly
+// (epipolar_pencil_index.hpp) finds those without scanning them all. The best candidate must be within TH_LOW and clearly
 // better than the second (ratio 0.6); a neighbour feature keeps only its best partner; the
 // rotation-consistency histogram removes matches whose orientation change disagrees with most.
 //
@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "cpu/thread_pool.hpp"
-#include "epipolar_band.hpp"
+#include "epipolar_pencil_index.hpp"
 #include "mapping_steps.hpp"
 #include "porta/slam/feature_matching.hpp"
 #include "porta/slam/optim/chi2.hpp"

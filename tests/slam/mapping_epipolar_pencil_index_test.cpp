@@ -1,7 +1,7 @@
-// EpipolarPencilIndex (slam/mapping/epipolar_band.hpp): what triangulation's epipolar search
+// EpipolarPencilIndex (slam/mapping/epipolar_pencil_index.hpp): what triangulation's epipolar search
 // visits must include every point a full scan finds in the band, each once, and should be a small
 // part of the points when the epipole is in view.
-#include "slam/mapping/epipolar_band.hpp"
+#include "slam/mapping/epipolar_pencil_index.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// EpipolarPencilIndex; see epipolar_band.hpp.
+// EpipolarPencilIndex; see epipolar_pencil_index.hpp.
 //
 // Why a window of asin(w / r) suffices: let the query line make distance d_e to the epipole and
 // have direction phi. A point at radius r and direction theta from the epipole lies at
@@ -6,7 +6,7 @@
 // d_e from the line itself. Within w of the line therefore means |sin(theta - phi)| < (w + d_e) / r
 // <= (w + d_e) / r_ring for every point of a ring with inner radius r_ring. Directions are taken
 // modulo pi (a line has no sense), and the reach adds one pixel so that rounding only widens it.
-#include "epipolar_band.hpp"
+#include "epipolar_pencil_index.hpp"
 
 #include <algorithm>
 #include <cmath>
