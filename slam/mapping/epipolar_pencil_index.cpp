@@ -64,7 +64,8 @@ EpipolarPencilIndex::EpipolarPencilIndex(std::span<const double> u, std::span<co
     const double dx = u[j] - epipole.x(), dy = v[j] - epipole.y();
     const double radius = std::hypot(dx, dy);
     ring[j] = static_cast<int>(std::upper_bound(std::begin(kRingRadii), std::end(kRingRadii), radius) -
-                               std::begin(kRingRadii)) - 1;
+                               std::begin(kRingRadii)) -
+              1;
     direction[j] = direction_mod_pi(dx, dy);
   }
   std::sort(order_.begin(), order_.end(), [&](int a, int b) {

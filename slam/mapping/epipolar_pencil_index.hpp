@@ -39,7 +39,8 @@ class EpipolarPencilIndex {
   void visit_band(const Eigen::Vector3d& line, Visit&& visit) const {
     Ranges ranges;
     const int count = band_ranges(line, ranges);
-    for (int i = 0; i < count; ++i) visit(ranges[static_cast<std::size_t>(i)].first, ranges[static_cast<std::size_t>(i)].last);
+    for (int i = 0; i < count; ++i)
+      visit(ranges[static_cast<std::size_t>(i)].first, ranges[static_cast<std::size_t>(i)].last);
   }
 
   static constexpr std::size_t kRings = 8;

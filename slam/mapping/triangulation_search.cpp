@@ -4,9 +4,10 @@
 // search of the unmatched features constrained by the epipolar geometry: a feature of the neighbour
 // is a candidate when it lies within the 95% (1 DoF, 3.84 sigma^2) band around the epipolar line of
 // the keyframe's feature. An index of the neighbour's features around the epipole
-// (epipolar_pencil_index.hpp) finds those without scanning them all. The best candidate must be within TH_LOW and clearly
-// better than the second (ratio 0.6); a neighbour feature keeps only its best partner; the
-// rotation-consistency histogram removes matches whose orientation change disagrees with most.
+// (epipolar_pencil_index.hpp) finds those without scanning them all. The best candidate must be
+// within TH_LOW and clearly better than the second (ratio 0.6); a neighbour feature keeps only its
+// best partner; the rotation-consistency histogram removes matches whose orientation change
+// disagrees with most.
 //
 // Locking: per neighbour, the poses and the unmatched feature lists are copied under Map::mutex,
 // the search and triangulation run without it (features are immutable), and the points are
@@ -139,7 +140,8 @@ struct PairSearch {
   static Eigen::Vector2d epipole_in_2(const SE3& T_1w, const SE3& T_2w, const StereoCamera& camera) {
     const Eigen::Vector3d c1_in_2 = T_2w * T_1w.inverse().translation();
     if (std::abs(c1_in_2.z()) <= 1e-12) return {-1e9, -1e9};
-    return {camera.fx * c1_in_2.x() / c1_in_2.z() + camera.cx, camera.fy * c1_in_2.y() / c1_in_2.z() + camera.cy};
+    return {camera.fx * c1_in_2.x() / c1_in_2.z() + camera.cx,
+            camera.fy * c1_in_2.y() / c1_in_2.z() + camera.cy};
   }
 
   /// The search for feature i1 of keyframe 1; it depends on nothing else, so features may be
@@ -159,7 +161,8 @@ struct PairSearch {
         if (num * num >= candidates.band[k] * line_norm2) continue;
         if (skip_near_epipole && candidates.near_epipole_mono[k] != 0) continue;
         const int i2 = candidates.feature[k];
-        const int distance = descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
+        const int distance =
+            descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
         if (distance < result.best || (distance == result.best && i2 < result.i2)) {
           result.second = result.best;
           result.best = distance;
@@ -177,8 +180,8 @@ struct PairSearch {
 /// candidate when within TH_LOW and below ratio x the second; a feature of keyframe 2 keeps its
 /// closest partner; then the rotation histogram. `best_of(i1)` gives the search's result.
 template <class BestOf>
-std::vector<Match> resolve_matches(const FrameFeatures& f1, const std::vector<int>& free1, const FrameFeatures& f2,
-                                   BestOf&& best_of) {
+std::vector<Match> resolve_matches(const FrameFeatures& f1, const std::vector<int>& free1,
+                                   const FrameFeatures& f2, BestOf&& best_of) {
   // Best partner of each feature of keyframe 2 (index into `matches`, -1 none): uniqueness.
   std::vector<int> taken_by(f2.size(), -1);
   std::vector<Match> matches;
@@ -277,9 +280,9 @@ std::optional<Eigen::Vector3d> triangulate_match(const StereoCamera& camera, con
 /// its pair's poses and free features only, so the sequential pass below takes these results
 /// wherever its own snapshot of the pair is the same, and the matches are those it would find.
 struct SearchedAhead {
-  std::vector<std::optional<PairSearch>> pairs;          // per neighbour; none: short baseline or bad
-  std::vector<std::vector<BestCandidate>> best;          // per neighbour, per feature of keyframe 1
-  std::vector<std::uint8_t> searched;                    // per feature of keyframe 1: in `best`
+  std::vector<std::optional<PairSearch>> pairs;  // per neighbour; none: short baseline or bad
+  std::vector<std::vector<BestCandidate>> best;  // per neighbour, per feature of keyframe 1
+  std::vector<std::uint8_t> searched;            // per feature of keyframe 1: in `best`
 };
 
 SearchedAhead search_ahead(Map& map, KeyFrame* keyframe, const std::vector<KeyFrame*>& neighbours,
@@ -339,7 +342,8 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
   }
   const FrameFeatures& f1 = *keyframe->features;
   SearchedAhead ahead;
-  if (pool != nullptr && pool->size() > 1) ahead = search_ahead(map, keyframe, neighbours, camera, pyramid, *pool);
+  if (pool != nullptr && pool->size() > 1)
+    ahead = search_ahead(map, keyframe, neighbours, camera, pyramid, *pool);
   int created = 0;
   for (std::size_t n = 0; n < neighbours.size(); ++n) {
     if (n > 0 && should_stop && should_stop()) break;

@@ -1,8 +1,6 @@
-// EpipolarPencilIndex (slam/mapping/epipolar_pencil_index.hpp): what triangulation's epipolar search
-// visits must include every point a full scan finds in the band, each once, and should be a small
-// part of the points when the epipole is in view.
-#include "slam/mapping/epipolar_pencil_index.hpp"
-
+// EpipolarPencilIndex (slam/mapping/epipolar_pencil_index.hpp): what triangulation's epipolar
+// search visits must include every point a full scan finds in the band, each once, and should be a
+// small part of the points when the epipole is in view.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,6 +10,8 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+
+#include "slam/mapping/epipolar_pencil_index.hpp"
 
 namespace porta::slam::mapping {
 namespace {
@@ -160,7 +160,8 @@ TEST(EpipolarPencilIndex, RefusesMismatchedOrNonFiniteInput) {
   const std::vector<double> bad = {1.0, std::numeric_limits<double>::quiet_NaN()};
   EXPECT_THROW(EpipolarPencilIndex(u, bad, epipole, 1.0), std::invalid_argument);
   EXPECT_THROW(EpipolarPencilIndex(u, u, epipole, -1.0), std::invalid_argument);
-  EXPECT_THROW(EpipolarPencilIndex(u, u, epipole, std::numeric_limits<double>::infinity()), std::invalid_argument);
+  EXPECT_THROW(EpipolarPencilIndex(u, u, epipole, std::numeric_limits<double>::infinity()),
+               std::invalid_argument);
 }
 
 }  // namespace
