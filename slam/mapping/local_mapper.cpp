@@ -42,6 +42,9 @@ void LocalMapper::insert_keyframe(KeyFrame* keyframe) {
     std::lock_guard lock(queue_mutex_);
     queue_.push_back(keyframe);
     abort_ba_ = true;  // a running bundle adjustment yields to the new keyframe
+    const auto now = Clock::now().time_since_epoch().count();
+    if (last_insert_ns_ != 0) keyframe_interval_ns_ = now - last_insert_ns_;
+    last_insert_ns_ = now;
   }
   queue_cv_.notify_one();
 }
@@ -76,6 +79,7 @@ void LocalMapper::process_all() {
 void LocalMapper::start() {
   if (thread_.joinable()) return;
   stop_requested_ = false;
+  realtime_ = true;  // before the thread starts, so it reads it without a race
   thread_ = std::thread(&LocalMapper::thread_main, this);
 }
 
@@ -88,6 +92,7 @@ void LocalMapper::stop() {
   queue_cv_.notify_all();
   tracking_cv_.notify_all();
   thread_.join();
+  realtime_ = false;
 }
 
 void LocalMapper::tracking_started() {
@@ -142,8 +147,18 @@ void LocalMapper::thread_main() {
   }
 }
 
+bool LocalMapper::spread_over_pool() const {
+  if (pool_ == nullptr) return false;
+  if (!realtime_) return true;  // deterministic: the caller waits for mapping
+  std::lock_guard lock(queue_mutex_);
+  // Realtime: only while keyframes come faster than one thread maps them (as fast as possible);
+  // at camera rate one thread keeps up, and the pool's workers would only add CPU time.
+  return keyframe_interval_ns_ > 0 && last_mapping_ns_ > keyframe_interval_ns_;
+}
+
 void LocalMapper::process(KeyFrame* keyframe) {
   MappingTimes times;
+  cpu::ThreadPool* const pool = spread_over_pool() ? pool_.get() : nullptr;
   const auto start = Clock::now();
   const std::int64_t paused_at_start = paused_ns_;
   auto step = Clock::now();
@@ -178,7 +193,7 @@ void LocalMapper::process(KeyFrame* keyframe) {
       mapping::triangulate_new_points(map_, keyframe, settings_, pyramid_, recent_points_, [this] {
         pause_point();
         return queued_keyframes() > 0;
-      }, pool_.get()));
+      }, pool));
   times.triangulate_ns = work_ns();
 
   if (queued_keyframes() == 0) {
@@ -199,7 +214,9 @@ void LocalMapper::process(KeyFrame* keyframe) {
       enough_keyframes = map_.num_keyframes() > 2;
     }
     if (enough_keyframes) {
-      mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &abort_ba_, [this] { pause_point(); });
+      mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &abort_ba_, [this] { pause_point(); },
+                                       pool);
+      times.bundle_adjustment_spread = pool != nullptr;
     }
     times.bundle_adjustment_ns = work_ns();
 
@@ -215,6 +232,10 @@ void LocalMapper::process(KeyFrame* keyframe) {
   }
   times.total_ns = elapsed_ns(start) - (paused_ns_ - paused_at_start);
   times_.push_back(times);
+  {
+    std::lock_guard lock(queue_mutex_);
+    last_mapping_ns_ = elapsed_ns(start);  // with the pauses: what the next keyframe waits for
+  }
   if (keyframe_processed_) keyframe_processed_(keyframe);
 }
 

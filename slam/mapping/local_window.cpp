@@ -77,7 +77,7 @@ BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, cons
 
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                             const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
-                            const std::function<void()>& between_iterations) {
+                            const std::function<void()>& between_iterations, cpu::ThreadPool* pool) {
   BaProblem problem;
   std::uint64_t generation = 0;
   {
@@ -89,8 +89,12 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
   if (problem.points.empty() || problem.observations.empty()) return 0;
 
   optim::LocalBundleAdjustmentOptions options;
-  options.num_threads = 1;  // deterministic
   options.stop_flag = stop_flag;
+  if (pool != nullptr && pool->size() > 1) {
+    options.parallel_for = [pool](std::int64_t n, const std::function<void(std::int64_t)>& fn) {
+      pool->parallel_for(0, n, fn);
+    };
+  }
   options.between_iterations = between_iterations;
   const optim::LocalBundleAdjustmentResult result = optim::local_bundle_adjustment(
       settings.camera, problem.ba_keyframes, problem.positions, problem.observations, options);

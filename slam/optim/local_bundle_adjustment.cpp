@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cpu/thread_pool.hpp"
 #include "porta/slam/optim/reprojection_costs.hpp"
 #include "porta/slam/optim/se3_manifold.hpp"
 #include "schur_solver.hpp"
@@ -36,8 +37,15 @@ class IterationHooks final : public ceres::IterationCallback {
   const std::function<void()>& between_;
 };
 
+constexpr int kMaxThreads = 256;
+
 void validate_input(std::span<const BaKeyframe> keyframes, std::span<const Eigen::Vector3d> points,
-                    std::span<const BaObservation> observations) {
+                    std::span<const BaObservation> observations, const LocalBundleAdjustmentOptions& options) {
+  if (options.num_threads < 1 || options.num_threads > kMaxThreads) {
+    throw std::invalid_argument("local_bundle_adjustment: options.num_threads = " +
+                                std::to_string(options.num_threads) + " (must be in [1, " +
+                                std::to_string(kMaxThreads) + "])");
+  }
   for (std::size_t i = 0; i < observations.size(); ++i) {
     const BaObservation& o = observations[i];
     const std::string where = "local_bundle_adjustment: observation " + std::to_string(i);
@@ -65,7 +73,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
                                                     const LocalBundleAdjustmentOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   camera.validate();
-  validate_input(keyframes, points, observations);
+  validate_input(keyframes, points, observations, options);
   const std::size_t n = observations.size();
 
   LocalBundleAdjustmentResult result;
@@ -119,6 +127,15 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
   };
   std::vector<bool> pose_fixed(keyframes.size());
   for (std::size_t k = 0; k < keyframes.size(); ++k) pose_fixed[k] = keyframes[k].fixed;
+  // The schur solver's loops: on the caller's parallel_for, else on a pool for this call.
+  ParallelFor parallel_for = options.parallel_for;
+  std::unique_ptr<cpu::ThreadPool> pool;
+  if (!parallel_for && options.solver == BaSolver::schur && options.num_threads > 1) {
+    pool = std::make_unique<cpu::ThreadPool>(options.num_threads);
+    parallel_for = [&pool](std::int64_t count, const std::function<void(std::int64_t)>& fn) {
+      pool->parallel_for(0, count, fn);
+    };
+  }
   const auto run_schur_stage = [&](const std::vector<bool>& active, int iterations, bool robust, Stage* stage) {
     detail::SchurStage input;
     input.model = model;
@@ -132,6 +149,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     input.max_iterations = iterations;
     input.stop_flag = options.stop_flag;
     input.between_iterations = &options.between_iterations;
+    input.parallel_for = &parallel_for;
     const detail::SchurSummary summary = detail::schur_levenberg_marquardt(input, poses, xyz);
     result.iterations += summary.iterations;
     *stage = {summary.initial_cost, summary.final_cost, summary.stopped};

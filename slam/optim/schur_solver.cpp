@@ -7,12 +7,20 @@
 //   (U - W V^-1 W^T) dc = -g_c + W V^-1 g_p,
 // a dense system of 6 x (free keyframes) unknowns, built point by point: every pair of a point's
 // free observations adds one 6x6 block.
+//
+// Two ways to build it, the same numbers in the same order (so the same bits): on one thread, one
+// sweep over the points does everything (the fastest there); with a parallel_for, the work is
+// split by point (Jacobians, V^-1, the points' steps), by free keyframe (U, g_c, b) and by block
+// of the reduced system, each adding its terms in the sweep's order (schur_layout.hpp).
 #include "schur_solver.hpp"
 #include "huber_weight.hpp"
+#include "schur_layout.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace porta::slam::optim::detail {
@@ -23,6 +31,7 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat3 = Eigen::Matrix3d;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Mat63 = Eigen::Matrix<double, 6, 3>;
+using Mat36 = Eigen::Matrix<double, 3, 6>;
 
 // Ceres' Levenberg-Marquardt constants (ceres::Solver::Options defaults).
 constexpr double kInitialRadius = 1e4;
@@ -40,38 +49,8 @@ Mat3 skew(const Vec3& v) {
   return m;
 }
 
-/// The active observations grouped by point (point order, then input order).
-struct Layout {
-  std::vector<std::size_t> points;       // points with an active observation, ascending
-  std::vector<std::size_t> group_begin;  // into `observations`, points.size() + 1 entries
-  std::vector<std::size_t> observations;
-  std::vector<int> free_index;  // per keyframe: its place among the free ones, -1 when fixed
-  int free_keyframes = 0;
-};
-
-Layout make_layout(const SchurStage& stage, std::size_t num_keyframes, std::size_t num_points) {
-  Layout layout;
-  layout.free_index.assign(num_keyframes, -1);
-  for (std::size_t k = 0; k < num_keyframes; ++k) {
-    if (!(*stage.pose_fixed)[k]) layout.free_index[k] = layout.free_keyframes++;
-  }
-  std::vector<std::size_t> count(num_points, 0);
-  for (std::size_t i = 0; i < stage.observations.size(); ++i) {
-    if ((*stage.active)[i]) ++count[stage.observations[i].point];
-  }
-  std::vector<std::size_t> start(num_points, 0);
-  layout.group_begin.push_back(0);
-  for (std::size_t p = 0; p < num_points; ++p) {
-    if (count[p] == 0) continue;
-    start[p] = layout.group_begin.back();
-    layout.points.push_back(p);
-    layout.group_begin.push_back(start[p] + count[p]);
-  }
-  layout.observations.resize(layout.group_begin.back());
-  for (std::size_t i = 0; i < stage.observations.size(); ++i) {
-    if ((*stage.active)[i]) layout.observations[start[stage.observations[i].point]++] = i;
-  }
-  return layout;
+double delta2(const SchurStage& stage, std::size_t i) {
+  return stage.observations[i].is_stereo() ? stage.chi2_stereo : stage.chi2_mono;
 }
 
 /// One observation's residual (3 rows; the third is 0 for mono) and its squared norm, at camera
@@ -100,20 +79,64 @@ void rotations(const std::vector<PoseParams>& poses, std::vector<Mat3>& R) {
   for (std::size_t k = 0; k < poses.size(); ++k) R[k] = pose_rotation(poses[k].data());
 }
 
+/// Observation i of world point X, linearised: residual, Huber weight, the derivative by the point
+/// and, for a free keyframe, by the pose (left increment: p' = Exp(phi) p + V(phi) rho, so
+/// dp / d(phi, rho) = [-[p]x  I]). False when the point lies in the camera's plane.
+struct Linearised {
+  Vec3 r;
+  double w = 0.0;
+  Mat3 J_point;
+  Mat36 J_pose;
+};
+bool linearise_observation(const SchurStage& stage, std::size_t i, const Mat3& R, const PoseParams& x, const Vec3& X,
+                           bool free_pose, Linearised& l) {
+  const Vec3 p = R * X + Vec3(x[4], x[5], x[6]);
+  Mat3 dr_dp;
+  if (!residual_at(stage, i, p, l.r, &dr_dp)) return false;
+  l.w = huber_weight(l.r.squaredNorm(), delta2(stage, i), stage.robust).weight;
+  l.J_point = dr_dp * R;
+  if (free_pose) {
+    l.J_pose.leftCols<3>() = -dr_dp * skew(p);
+    l.J_pose.rightCols<3>() = dr_dp;
+  }
+  return true;
+}
+
+/// The pose rows of a free observation, as the keyframes' sums take them.
+struct PoseRow {
+  Mat36 J_pose;
+  Vec3 r;
+  double w = 0.0;
+};
+void add_pose_terms(const Mat36& J_pose, const Vec3& r, double w, Mat6& U, Vec6& g) {
+  U.noalias() += w * J_pose.transpose() * J_pose;
+  g.noalias() += w * J_pose.transpose() * r;
+}
+
 class Solver {
  public:
   Solver(const SchurStage& stage, std::vector<PoseParams>& poses, std::vector<Vec3>& points)
-      : stage_(stage), poses_(poses), points_(points), layout_(make_layout(stage, poses.size(), points.size())) {
-    const std::size_t n_obs = layout_.observations.size();
+      : stage_(stage),
+        poses_(poses),
+        points_(points),
+        parallel_(stage.parallel_for != nullptr && *stage.parallel_for),
+        layout_(make_schur_layout(stage.observations, *stage.active, *stage.pose_fixed, points.size())) {
+    const std::size_t n_slots = layout_.observations.size();
     const auto n_points = layout_.points.size();
     const auto n_free = static_cast<std::size_t>(layout_.free_keyframes);
-    W_.resize(n_obs);
+    W_.resize(n_slots);
+    cost_.resize(n_slots);
+    if (parallel_) {
+      Y_.resize(n_slots);
+      pose_rows_.resize(layout_.keyframe_slots.size());
+    }
     V_.resize(n_points);
     V_inv_.resize(n_points);
     g_p_.resize(n_points);
     U_.resize(n_free);
     g_c_.resize(n_free);
     step_c_.resize(6 * static_cast<Eigen::Index>(n_free));
+    b_.resize(6 * static_cast<Eigen::Index>(n_free));
     step_p_.resize(n_points);
     S_.resize(6 * static_cast<Eigen::Index>(n_free), 6 * static_cast<Eigen::Index>(n_free));
   }
@@ -121,47 +144,82 @@ class Solver {
   SchurSummary run();
 
  private:
-  double delta2(std::size_t i) const {
-    return stage_.observations[i].is_stereo() ? stage_.chi2_stereo : stage_.chi2_mono;
+  /// fn(i) for every i in [0, n): on the stage's parallel_for when it has one.
+  template <typename Fn>
+  void for_each_index(std::size_t n, Fn&& fn) const {
+    if (!parallel_ || n < 2) {
+      for (std::size_t i = 0; i < n; ++i) fn(i);
+      return;
+    }
+    (*stage_.parallel_for)(static_cast<std::int64_t>(n), [&fn](std::int64_t i) { fn(static_cast<std::size_t>(i)); });
   }
+  Mat3 damped(Mat3 H, double mu) const;
   bool cost_at(const std::vector<PoseParams>& poses, const std::vector<Vec3>& points, double& cost);
   bool linearise();
+  bool linearise_split();
+  bool invert_point(std::size_t j, double mu);
   bool solve_step(double mu);
+  void reduce_in_one_sweep();
+  void reduce_split();
+  bool back_substitute();
   double max_gradient() const;
 
   const SchurStage& stage_;
   std::vector<PoseParams>& poses_;
   std::vector<Vec3>& points_;
-  const Layout layout_;
+  const bool parallel_;
+  const SchurLayout layout_;
   std::vector<Mat3> R_;
-  // Linearisation at the current estimate (undamped).
-  std::vector<Mat63> W_;  // per grouped observation (zero for a fixed keyframe's)
+  // Linearisation at the current estimate (undamped). W per slot (zero for a fixed keyframe's).
+  std::vector<Mat63> W_;
   std::vector<Mat3> V_, V_inv_;
   std::vector<Vec3> g_p_, step_p_;
   std::vector<Mat6> U_;
   std::vector<Vec6> g_c_;
-  Eigen::VectorXd step_c_;
+  std::vector<double> cost_;  // per slot, summed in slot order
+  // The reduced system S (upper triangle) and its side b.
+  Eigen::VectorXd step_c_, b_;
   Eigen::MatrixXd S_;
+  // Split work only: the free slots' pose rows in keyframe order; Y = W V^-1 per free slot.
+  std::vector<PoseRow> pose_rows_;
+  std::vector<Mat63> Y_;
 };
+
+Mat3 Solver::damped(Mat3 H, double mu) const {
+  for (int d = 0; d < 3; ++d) H(d, d) += mu * std::clamp(H(d, d), kMinDiagonal, kMaxDiagonal);
+  return H;
+}
 
 bool Solver::cost_at(const std::vector<PoseParams>& poses, const std::vector<Vec3>& points, double& cost) {
   rotations(poses, R_);
+  std::atomic<bool> ok{true};
+  for_each_index(layout_.points.size(), [&](std::size_t j) {
+    const Vec3& X = points[layout_.points[j]];
+    for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
+      const std::size_t i = layout_.observations[a];
+      const std::size_t k = stage_.observations[i].keyframe;
+      const PoseParams& x = poses[k];
+      const Vec3 p = R_[k] * X + Vec3(x[4], x[5], x[6]);
+      Vec3 r;
+      if (!residual_at(stage_, i, p, r, nullptr)) {
+        ok.store(false, std::memory_order_relaxed);
+        return;
+      }
+      cost_[a] = huber_weight(r.squaredNorm(), delta2(stage_, i), stage_.robust).cost;
+    }
+  });
+  if (!ok.load()) return false;
   cost = 0.0;
-  for (const std::size_t i : layout_.observations) {
-    const BaObservation& o = stage_.observations[i];
-    const PoseParams& x = poses[o.keyframe];
-    const Vec3 p = R_[o.keyframe] * points[o.point] + Vec3(x[4], x[5], x[6]);
-    Vec3 r;
-    if (!residual_at(stage_, i, p, r, nullptr)) return false;
-    cost += huber_weight(r.squaredNorm(), delta2(i), stage_.robust).cost;
-  }
+  for (const double c : cost_) cost += c;
   return std::isfinite(cost);
 }
 
 bool Solver::linearise() {
   rotations(poses_, R_);
+  if (parallel_) return linearise_split();
   for (Mat6& U : U_) U.setZero();
   for (Vec6& g : g_c_) g.setZero();
+  Linearised l;
   for (std::size_t j = 0; j < layout_.points.size(); ++j) {
     const Vec3& X = points_[layout_.points[j]];
     Mat3 V = Mat3::Zero();
@@ -169,31 +227,62 @@ bool Solver::linearise() {
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
       const std::size_t i = layout_.observations[a];
       const std::size_t k = stage_.observations[i].keyframe;
-      const PoseParams& x = poses_[k];
-      const Vec3 p = R_[k] * X + Vec3(x[4], x[5], x[6]);
-      Vec3 r;
-      Mat3 dr_dp;
-      if (!residual_at(stage_, i, p, r, &dr_dp)) return false;
-      const double w = huber_weight(r.squaredNorm(), delta2(i), stage_.robust).weight;
-      const Mat3 J_point = dr_dp * R_[k];
-      V.noalias() += w * J_point.transpose() * J_point;
-      g.noalias() += w * J_point.transpose() * r;
-      const int f = layout_.free_index[k];
+      const int f = layout_.free_of[a];
+      if (!linearise_observation(stage_, i, R_[k], poses_[k], X, f >= 0, l)) return false;
+      V.noalias() += l.w * l.J_point.transpose() * l.J_point;
+      g.noalias() += l.w * l.J_point.transpose() * l.r;
       if (f < 0) {
         W_[a].setZero();
         continue;
       }
-      // Left increment: p' = Exp(phi) p + V(phi) rho, so dp / d(phi, rho) = [-[p]x  I].
-      Eigen::Matrix<double, 3, 6> J_pose;
-      J_pose.leftCols<3>() = -dr_dp * skew(p);
-      J_pose.rightCols<3>() = dr_dp;
-      U_[static_cast<std::size_t>(f)].noalias() += w * J_pose.transpose() * J_pose;
-      g_c_[static_cast<std::size_t>(f)].noalias() += w * J_pose.transpose() * r;
-      W_[a].noalias() = w * J_pose.transpose() * J_point;
+      add_pose_terms(l.J_pose, l.r, l.w, U_[static_cast<std::size_t>(f)], g_c_[static_cast<std::size_t>(f)]);
+      W_[a].noalias() = l.w * l.J_pose.transpose() * l.J_point;
     }
     V_[j] = V;
     g_p_[j] = g;
   }
+  return true;
+}
+
+bool Solver::linearise_split() {
+  std::atomic<bool> ok{true};
+  // By point: V, g_p, W and the pose rows.
+  for_each_index(layout_.points.size(), [&](std::size_t j) {
+    const Vec3& X = points_[layout_.points[j]];
+    Mat3 V = Mat3::Zero();
+    Vec3 g = Vec3::Zero();
+    Linearised l;
+    for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
+      const std::size_t i = layout_.observations[a];
+      const std::size_t k = stage_.observations[i].keyframe;
+      const int f = layout_.free_of[a];
+      if (!linearise_observation(stage_, i, R_[k], poses_[k], X, f >= 0, l)) {
+        ok.store(false, std::memory_order_relaxed);
+        return;
+      }
+      V.noalias() += l.w * l.J_point.transpose() * l.J_point;
+      g.noalias() += l.w * l.J_point.transpose() * l.r;
+      if (f < 0) {
+        W_[a].setZero();
+        continue;
+      }
+      pose_rows_[layout_.keyframe_position[a]] = {l.J_pose, l.r, l.w};
+      W_[a].noalias() = l.w * l.J_pose.transpose() * l.J_point;
+    }
+    V_[j] = V;
+    g_p_[j] = g;
+  });
+  if (!ok.load()) return false;
+  // By free keyframe: U and g_c over its rows in slot order.
+  for_each_index(U_.size(), [&](std::size_t f) {
+    Mat6 U = Mat6::Zero();
+    Vec6 g = Vec6::Zero();
+    for (std::size_t s = layout_.keyframe_begin[f]; s < layout_.keyframe_begin[f + 1]; ++s) {
+      add_pose_terms(pose_rows_[s].J_pose, pose_rows_[s].r, pose_rows_[s].w, U, g);
+    }
+    U_[f] = U;
+    g_c_[f] = g;
+  });
   return true;
 }
 
@@ -204,45 +293,65 @@ double Solver::max_gradient() const {
   return m;
 }
 
+/// V^-1 of point j's damped block; false when it is singular.
+bool Solver::invert_point(std::size_t j, double mu) {
+  bool invertible = false;
+  damped(V_[j], mu).computeInverseWithCheck(V_inv_[j], invertible);
+  return invertible && V_inv_[j].allFinite();
+}
+
 // The damped step into step_c_ / step_p_; false when the reduced system is not positive definite.
 bool Solver::solve_step(double mu) {
-  const auto damped = [mu](auto H) {
-    for (int d = 0; d < H.rows(); ++d) H(d, d) += mu * std::clamp(H(d, d), kMinDiagonal, kMaxDiagonal);
-    return H;
-  };
-  const Eigen::Index n = S_.rows();
   S_.setZero();
-  Eigen::VectorXd b(n);
   for (std::size_t f = 0; f < U_.size(); ++f) {
     const auto o = 6 * static_cast<Eigen::Index>(f);
-    S_.block<6, 6>(o, o) = damped(U_[f]);
-    b.segment<6>(o) = -g_c_[f];
+    Mat6 U = U_[f];
+    for (int d = 0; d < 6; ++d) U(d, d) += mu * std::clamp(U(d, d), kMinDiagonal, kMaxDiagonal);
+    S_.block<6, 6>(o, o) = U;
+    b_.segment<6>(o) = -g_c_[f];
   }
+  std::atomic<bool> ok{true};
+  for_each_index(layout_.points.size(), [&](std::size_t j) {
+    if (!invert_point(j, mu)) ok.store(false, std::memory_order_relaxed);
+  });
+  if (!ok.load()) return false;
+  if (parallel_) {
+    reduce_split();
+  } else {
+    reduce_in_one_sweep();
+  }
+  if (S_.rows() > 0) {
+    const Eigen::LLT<Eigen::MatrixXd, Eigen::Upper> llt(S_);
+    if (llt.info() != Eigen::Success) return false;
+    step_c_ = llt.solve(b_);
+    if (!step_c_.allFinite()) return false;
+  }
+  return back_substitute();
+}
+
+// S -= W V^-1 W^T and b += W V^-1 g_p, point by point.
+void Solver::reduce_in_one_sweep() {
   std::vector<Mat63> Y;  // W V^-1 of the point's free observations
   std::vector<Eigen::Index> at;
   for (std::size_t j = 0; j < layout_.points.size(); ++j) {
-    const Mat3 V = damped(V_[j]);
-    bool invertible = false;
-    V.computeInverseWithCheck(V_inv_[j], invertible);
-    if (!invertible || !V_inv_[j].allFinite()) return false;
     Y.clear();
     at.clear();
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
-      const int f = layout_.free_index[stage_.observations[layout_.observations[a]].keyframe];
+      const int f = layout_.free_of[a];
       if (f < 0) continue;
       Y.push_back(W_[a] * V_inv_[j]);
       at.push_back(6 * static_cast<Eigen::Index>(f));
-      b.segment<6>(at.back()).noalias() += Y.back() * g_p_[j];
+      b_.segment<6>(at.back()).noalias() += Y.back() * g_p_[j];
     }
     std::size_t m = 0;
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
-      if (layout_.free_index[stage_.observations[layout_.observations[a]].keyframe] < 0) continue;
+      if (layout_.free_of[a] < 0) continue;
       const Mat63& Wa = W_[a];
       // Upper triangle of S: the block (row, col) with row <= col.
       S_.block<6, 6>(at[m], at[m]).noalias() -= Y[m] * Wa.transpose();
       std::size_t q = m + 1;
       for (std::size_t c = a + 1; c < layout_.group_begin[j + 1]; ++c) {
-        if (layout_.free_index[stage_.observations[layout_.observations[c]].keyframe] < 0) continue;
+        if (layout_.free_of[c] < 0) continue;
         const Mat63& Wc = W_[c];
         if (at[m] < at[q]) {
           S_.block<6, 6>(at[m], at[q]).noalias() -= Y[m] * Wc.transpose();
@@ -256,22 +365,52 @@ bool Solver::solve_step(double mu) {
       ++m;
     }
   }
-  if (n > 0) {
-    const Eigen::LLT<Eigen::MatrixXd, Eigen::Upper> llt(S_);
-    if (llt.info() != Eigen::Success) return false;
-    step_c_ = llt.solve(b);
-    if (!step_c_.allFinite()) return false;
-  }
-  for (std::size_t j = 0; j < layout_.points.size(); ++j) {
+}
+
+// The same sums, split: Y by point, then each block of S and each keyframe's part of b on its own.
+void Solver::reduce_split() {
+  for_each_index(layout_.points.size(), [&](std::size_t j) {
+    for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
+      if (layout_.free_of[a] >= 0) Y_[a] = W_[a] * V_inv_[j];
+    }
+  });
+  const std::size_t blocks = layout_.blocks.size();
+  for_each_index(blocks + U_.size(), [&](std::size_t t) {
+    if (t >= blocks) {
+      const std::size_t f = t - blocks;
+      auto b = b_.segment<6>(6 * static_cast<Eigen::Index>(f));
+      for (std::size_t s = layout_.keyframe_begin[f]; s < layout_.keyframe_begin[f + 1]; ++s) {
+        const std::uint32_t a = layout_.keyframe_slots[s];
+        b.noalias() += Y_[a] * g_p_[layout_.point_of[a]];
+      }
+      return;
+    }
+    const SchurLayout::Block& block = layout_.blocks[t];
+    auto S = S_.block<6, 6>(6 * static_cast<Eigen::Index>(block.row), 6 * static_cast<Eigen::Index>(block.col));
+    for (std::size_t e = layout_.block_begin[t]; e < layout_.block_begin[t + 1]; ++e) {
+      const SchurLayout::Term& term = layout_.terms[e];
+      if (term.both) {
+        S.noalias() -= Y_[term.x] * W_[term.y].transpose() + Y_[term.y] * W_[term.x].transpose();
+      } else {
+        S.noalias() -= Y_[term.x] * W_[term.y].transpose();
+      }
+    }
+  });
+}
+
+// The points' steps from the poses' one: dp = V^-1 (-g_p - W^T dc).
+bool Solver::back_substitute() {
+  std::atomic<bool> ok{true};
+  for_each_index(layout_.points.size(), [&](std::size_t j) {
     Vec3 rhs = -g_p_[j];
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
-      const int f = layout_.free_index[stage_.observations[layout_.observations[a]].keyframe];
+      const int f = layout_.free_of[a];
       if (f >= 0) rhs.noalias() -= W_[a].transpose() * step_c_.segment<6>(6 * static_cast<Eigen::Index>(f));
     }
     step_p_[j] = V_inv_[j] * rhs;
-    if (!step_p_[j].allFinite()) return false;
-  }
-  return true;
+    if (!step_p_[j].allFinite()) ok.store(false, std::memory_order_relaxed);
+  });
+  return ok.load();
 }
 
 SchurSummary Solver::run() {

@@ -9,7 +9,8 @@
 // (trust radius 1e4, diagonal clamped to [1e-6, 1e32], a step kept when it achieves 1e-3 of the
 // predicted decrease; function tolerance 1e-6, parameter tolerance 1e-8, gradient tolerance 1e-10),
 // and a robust loss is applied as Ceres and g2o do with Huber: each residual block weighted by
-// rho'(chi2). Single-threaded and in a fixed order: the same input gives the same bits.
+// rho'(chi2). Every sum is taken in one fixed order (schur_layout.hpp) however the work is split
+// over threads: the same input gives the same bits, on one thread or many.
 #pragma once
 
 #include <Eigen/Core>
@@ -35,6 +36,7 @@ struct SchurStage {
   int max_iterations = 0;  ///< steps tried, kept or not (Ceres' count)
   const std::atomic<bool>* stop_flag = nullptr;
   const std::function<void()>* between_iterations = nullptr;
+  const ParallelFor* parallel_for = nullptr;  ///< null or empty: everything on the calling thread
 };
 
 struct SchurSummary {

@@ -194,7 +194,9 @@ TEST(Mapping, TwoDeterministicRunsGiveBitIdenticalMaps) {
   EXPECT_TRUE(a == b);
 }
 
-TEST(Mapping, ParallelTriangulationGivesTheSameMapAsOneThread) {
+// Three mapping threads: triangulation's searches and local BA's loops on the pool (deterministic
+// mode always uses it), the same map as one thread.
+TEST(Mapping, ParallelMappingGivesTheSameMapAsOneThread) {
   const SyntheticScene scene{SceneSpec{}};
   SlamSettings one = test_settings(), three = test_settings();
   one.mapping_threads = 1;
@@ -206,6 +208,13 @@ TEST(Mapping, ParallelTriangulationGivesTheSameMapAsOneThread) {
   EXPECT_GT(mapper_one.points_triangulated(), 0u);
   EXPECT_EQ(mapper_three.points_triangulated(), mapper_one.points_triangulated());
   EXPECT_TRUE(MapSnapshot(map_one) == MapSnapshot(map_three));
+  const auto spread = [](const LocalMapper& m) {
+    int n = 0;
+    for (const MappingTimes& t : m.times()) n += t.bundle_adjustment_spread ? 1 : 0;
+    return n;
+  };
+  EXPECT_EQ(spread(mapper_one), 0);
+  EXPECT_GE(spread(mapper_three), static_cast<int>(mapper_three.times().size()) - 3);  // BA from the third on
 }
 
 /// Waits until the mapping thread has processed everything queued (queue first, then idle: the

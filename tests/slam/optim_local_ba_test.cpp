@@ -12,11 +12,13 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "cpu/thread_pool.hpp"
 #include "porta/slam/optim/local_bundle_adjustment.hpp"
 #include "random_draws.hpp"
 
@@ -313,6 +315,66 @@ TEST(OptimLocalBa, SchurSolverHandlesTwoObservationsOfAPointInOneKeyframe) {
     s.is_outlier.push_back(s.is_outlier[j]);
   }
   expect_same_optimum(s, "duplicated observations");
+}
+
+void expect_same_bits(const LocalBundleAdjustmentResult& a, const LocalBundleAdjustmentResult& b) {
+  ASSERT_EQ(a.T_cw.size(), b.T_cw.size());
+  for (std::size_t k = 0; k < a.T_cw.size(); ++k) EXPECT_TRUE(same_bits(a.T_cw[k], b.T_cw[k])) << "keyframe " << k;
+  ASSERT_EQ(a.points.size(), b.points.size());
+  EXPECT_EQ(std::memcmp(a.points.data(), b.points.data(), sizeof(Vector3d) * a.points.size()), 0);
+  EXPECT_EQ(a.outlier_observations, b.outlier_observations);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(std::memcmp(&a.final_cost, &b.final_cost, sizeof(double)), 0) << a.final_cost << " vs " << b.final_cost;
+}
+
+// The schur solver's loops split by point, by keyframe and by block of the reduced system, each
+// summing in the order of the one-thread sweep: any split gives that sweep's bits. Checked with
+// the indices run backwards on one thread, on a pool of 4 kept by the caller, and on the pool
+// num_threads = 3 starts; the scene has two fixed keyframes and points measured twice in one
+// keyframe (both cross terms in one diagonal block).
+TEST(OptimLocalBa, SchurSolverGivesTheSameBitsOnAnyNumberOfThreads) {
+  Scene s = synthetic_scene(2, 36);
+  const std::size_t n = s.observations.size();
+  for (std::size_t j = 0; j < n; j += 5) {
+    BaObservation twice = s.observations[j];
+    twice.u_left -= 0.4;
+    s.observations.push_back(twice);
+  }
+  const LocalBundleAdjustmentResult one_sweep =
+      local_bundle_adjustment(test_camera(), s.keyframes, s.points, s.observations);
+  ASSERT_GT(one_sweep.iterations, 3);
+
+  LocalBundleAdjustmentOptions backwards;
+  backwards.parallel_for = [](std::int64_t count, const std::function<void(std::int64_t)>& fn) {
+    for (std::int64_t i = count - 1; i >= 0; --i) fn(i);
+  };
+  cpu::ThreadPool pool(4);
+  LocalBundleAdjustmentOptions kept_pool;
+  kept_pool.parallel_for = [&pool](std::int64_t count, const std::function<void(std::int64_t)>& fn) {
+    pool.parallel_for(0, count, fn);
+  };
+  LocalBundleAdjustmentOptions own_pool;
+  own_pool.num_threads = 3;
+  for (const auto& [name, options] : {std::pair{"backwards", &backwards}, std::pair{"kept pool of 4", &kept_pool},
+                                      std::pair{"num_threads 3", &own_pool}}) {
+    SCOPED_TRACE(name);
+    expect_same_bits(one_sweep, local_bundle_adjustment(test_camera(), s.keyframes, s.points, s.observations, *options));
+  }
+}
+
+TEST(OptimLocalBa, RejectsAThreadCountOutOfRange) {
+  const Scene s = synthetic_scene(2, 37);
+  for (const int threads : {0, -2, 257}) {
+    LocalBundleAdjustmentOptions options;
+    options.num_threads = threads;
+    try {
+      (void)local_bundle_adjustment(test_camera(), s.keyframes, s.points, s.observations, options);
+      ADD_FAILURE() << "num_threads " << threads << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("num_threads = " + std::to_string(threads)), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(OptimLocalBa, StopFlagRaisedBetweenIterationsEndsTheAdjustmentThere) {

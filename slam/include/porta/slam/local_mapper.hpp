@@ -38,6 +38,7 @@ struct MappingTimes {
   std::int64_t bundle_adjustment_ns = 0;
   std::int64_t cull_keyframes_ns = 0;
   std::int64_t total_ns = 0;
+  bool bundle_adjustment_spread = false;  ///< its loops ran on the mapping pool
 };
 
 class LocalMapper {
@@ -93,6 +94,10 @@ class LocalMapper {
   void pause_point();
   /// Takes the oldest queued keyframe (nullptr: none) and clears the bundle-adjustment abort flag.
   KeyFrame* pop_keyframe();
+  /// Whether this keyframe's triangulation and bundle adjustment use the pool: always in the
+  /// deterministic mode, in the realtime one while mapping is slower than keyframes arrive. Their
+  /// results are the same either way.
+  bool spread_over_pool() const;
 
   const SlamSettings settings_;
   const ScalePyramid pyramid_;
@@ -107,7 +112,13 @@ class LocalMapper {
   bool tracking_busy_ = false;  ///< under queue_mutex_
   std::int64_t paused_ns_ = 0;  ///< time pause_point() waited (mapping thread only)
   std::thread thread_;
+  bool realtime_ = false;  ///< set before the thread starts, cleared after it joins
   std::unique_ptr<cpu::ThreadPool> pool_;  ///< settings.resolved_mapping_threads() > 1 only
+  // Under queue_mutex_: steady-clock time of the last insert_keyframe(), the interval before it,
+  // and the wall time the last processed keyframe took.
+  std::int64_t last_insert_ns_ = 0;
+  std::int64_t keyframe_interval_ns_ = 0;
+  std::int64_t last_mapping_ns_ = 0;
   std::function<void(KeyFrame*)> keyframe_processed_;
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
   std::vector<MappingTimes> times_;

@@ -7,13 +7,15 @@
 // is not in front of its camera, is dropped, and `second_iterations` (10) more run without a robust
 // loss. Finally all observations (dropped ones too) are checked again by the same test at the
 // final estimate; those failing are returned so that the map can erase them. Points are eliminated
-// first (Schur complement; see BaSolver); with num_threads = 1 the result is deterministic (bit-identical for the
-// same input). Fixed keyframes' poses are returned untouched (bit-identical copies).
+// first (Schur complement; see BaSolver). The `schur` solver's result is deterministic (bit-identical
+// for the same input) on any number of threads; Ceres' with num_threads = 1. Fixed keyframes' poses
+// are returned untouched (bit-identical copies).
 #pragma once
 
 #include <Eigen/Core>
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <span>
 #include <vector>
@@ -54,13 +56,22 @@ enum class BaSolver {
   ceres_sparse_schur,
 };
 
+/// Calls fn(i) once for every i in [0, n) on any threads, in any order, and returns when all have
+/// returned (a thread pool's parallel_for, for instance).
+using ParallelFor = std::function<void(std::int64_t n, const std::function<void(std::int64_t)>& fn)>;
+
 struct LocalBundleAdjustmentOptions {
   int first_iterations = 5;
   int second_iterations = 10;
   double chi2_mono = kChi2Mono95;
   double chi2_stereo = kChi2Stereo95;
-  /// Ceres' threads (the `schur` solver has one).
+  /// Threads. Ceres' solvers: theirs (1 = deterministic). `schur`: a pool of this many for the
+  /// call when `parallel_for` is empty (same result on any number; in [1, 256]).
   int num_threads = 1;
+  /// `schur` only: where its loops over points, keyframes and blocks of the reduced camera system
+  /// run (e.g. a pool the caller keeps, instead of one started per call). Its result does not
+  /// depend on it. Empty: num_threads decides.
+  ParallelFor parallel_for;
   BaSolver solver = BaSolver::schur;
   /// When set (e.g. by local mapping when a new keyframe arrives) the solver stops at its next
   /// iteration and the second stage is skipped; the outlier check still runs.
