@@ -21,7 +21,8 @@
 # KITTI 00's ground truth in PORTA_DATA_DIR/gt-trajectories (../shared/data; carried too); no
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
 # Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
-# runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_LOOP
+# runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BA_BENCH
+# (0: no local BA benchmark), PORTA_SLAM_LOOP
 # (0: no street-loop determinism check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
 # PORTA_JOBS, PORTA_SLAM_BUILD_DIR (default build-gpu-slam), PORTA_SLAM_WORK (default OUT_DIR/work:
@@ -186,12 +187,27 @@ for b in "${backend_list[@]}"; do
   stop_sampler
 done
 
+# ---- 3b. Local bundle adjustment on the host's threads (porta_ba_bench; needs Google Benchmark) --
+if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
+  say "local BA benchmark: one thread against the split loops on 1, 2, 4 and 8"
+  if cmake --build "$build_dir" --target porta_ba_bench -j "${PORTA_JOBS:-$(nproc)}" >>"$out_dir/build.log" 2>&1; then
+    "$build_dir/bench/porta_ba_bench" --benchmark_filter='Schur($|Threads)' --benchmark_repetitions=5 \
+      --benchmark_report_aggregates_only=true >"$out_dir/ba-bench.txt" 2>&1 || status=1
+  else
+    echo "porta_ba_bench not built (Google Benchmark missing? see build.log)" >"$out_dir/ba-bench.txt"
+  fi
+fi
+
 # ---- 4. Report -------------------------------------------------------------------------------------
 python3 bench/slam_report.py --results "$out_dir" --work "$work" --backends "$backends" >"$out_dir/report.md" ||
   { say "report FAILED"; status=1; }
 if [ -f "$out_dir/loop-determinism.txt" ]; then
   printf '\n### Deterministic mode with a loop closure (street-loop, 612 frames)\n\n```\n%s\n```\n' \
     "$(cat "$out_dir/loop-determinism.txt")" >>"$out_dir/report.md"
+fi
+if [ -f "$out_dir/ba-bench.txt" ]; then
+  printf '\n### Local bundle adjustment on this host (porta_ba_bench, medians of 5)\n\n```\n%s\n```\n' \
+    "$(grep -E '_median|not built' "$out_dir/ba-bench.txt" | sed 's/ \{2,\}/  /g')" >>"$out_dir/report.md"
 fi
 cat "$out_dir/report.md"
 say "results in $out_dir (report.md, *.json, *.log, *.gpu.csv)"
