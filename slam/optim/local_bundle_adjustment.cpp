@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -87,17 +88,20 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
   std::vector<Eigen::Vector3d> xyz(points.begin(), points.end());
 
   const ProjectionModel model = ProjectionModel::from(camera);
-  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
   std::vector<double> sqrt_info(n);
-  costs.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const BaObservation& o = observations[i];
-    sqrt_info[i] = 1.0 / std::sqrt(o.sigma2);
-    if (o.is_stereo()) {
-      costs.push_back(std::make_unique<StereoReprojectionCost>(
-          model, StereoMeasurement{o.u_left, o.v, o.u_right}, sqrt_info[i]));
-    } else {
-      costs.push_back(std::make_unique<MonoReprojectionCost>(model, o.u_left, o.v, sqrt_info[i]));
+  for (std::size_t i = 0; i < n; ++i) sqrt_info[i] = 1.0 / std::sqrt(observations[i].sigma2);
+  // Ceres' cost functions, for Ceres' solvers only.
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+  if (options.solver != BaSolver::schur) {
+    costs.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const BaObservation& o = observations[i];
+      if (o.is_stereo()) {
+        costs.push_back(std::make_unique<StereoReprojectionCost>(
+            model, StereoMeasurement{o.u_left, o.v, o.u_right}, sqrt_info[i]));
+      } else {
+        costs.push_back(std::make_unique<MonoReprojectionCost>(model, o.u_left, o.v, sqrt_info[i]));
+      }
     }
   }
   ceres::HuberLoss huber_mono(std::sqrt(options.chi2_mono));
@@ -108,25 +112,6 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     return options.stop_flag != nullptr && options.stop_flag->load(std::memory_order_relaxed);
   };
 
-  // chi2 test of ORB-SLAM2: whitened squared residual under the threshold, point in front.
-  const auto passes = [&](std::size_t i, double* pixel_sq_error) {
-    const BaObservation& o = observations[i];
-    const double* const params[] = {poses[o.keyframe].data(), xyz[o.point].data()};
-    double r[3] = {0.0, 0.0, 0.0};
-    if (!costs[i]->Evaluate(params, r, nullptr)) return false;
-    const double chi2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-    if (pixel_sq_error != nullptr) *pixel_sq_error = chi2 * o.sigma2;
-    const double threshold = o.is_stereo() ? options.chi2_stereo : options.chi2_mono;
-    return chi2 <= threshold && transform_to_camera(poses[o.keyframe].data(), xyz[o.point]).z() > 0.0;
-  };
-
-  // One stage: true when there was something to optimise; `stopped` when the stop flag ended it.
-  struct Stage {
-    double initial_cost = 0.0, final_cost = 0.0;
-    bool stopped = false;
-  };
-  std::vector<bool> pose_fixed(keyframes.size());
-  for (std::size_t k = 0; k < keyframes.size(); ++k) pose_fixed[k] = keyframes[k].fixed;
   // The schur solver's loops: on the caller's parallel_for, else on a pool for this call.
   ParallelFor parallel_for = options.parallel_for;
   std::unique_ptr<cpu::ThreadPool> pool;
@@ -136,6 +121,51 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
       pool->parallel_for(0, count, fn);
     };
   }
+  // fn(i) for every observation, split over parallel_for when there is one (each writes its own).
+  const auto for_each_observation = [&](const std::function<void(std::int64_t)>& fn) {
+    if (parallel_for) {
+      parallel_for(static_cast<std::int64_t>(n), fn);
+    } else {
+      for (std::size_t i = 0; i < n; ++i) fn(static_cast<std::int64_t>(i));
+    }
+  };
+
+  // chi2 test of ORB-SLAM2 at the current estimate, per observation: whitened squared residual
+  // under the threshold, point in front. The residual is the cost functions' (the same arithmetic:
+  // the pose's rotation, then the camera model), with each keyframe's rotation computed once.
+  std::vector<Eigen::Matrix3d> rotation(keyframes.size());
+  std::vector<std::uint8_t> inlier(n);
+  std::vector<double> pixel_sq(n);
+  const auto test_observations = [&] {
+    for (std::size_t k = 0; k < keyframes.size(); ++k) rotation[k] = pose_rotation(poses[k].data());
+    for_each_observation([&](std::int64_t index) {
+      const auto i = static_cast<std::size_t>(index);
+      const BaObservation& o = observations[i];
+      const PoseParams& x = poses[o.keyframe];
+      const Eigen::Vector3d p = rotation[o.keyframe] * xyz[o.point] + Eigen::Vector3d(x[4], x[5], x[6]);
+      double r[3] = {0.0, 0.0, 0.0};
+      bool ok = false;
+      if (o.is_stereo()) {
+        const double measured[3] = {o.u_left, o.v, o.u_right};
+        ok = camera_residual<3>(model, measured, sqrt_info[i], p, r, nullptr);
+      } else {
+        const double measured[2] = {o.u_left, o.v};
+        ok = camera_residual<2>(model, measured, sqrt_info[i], p, r, nullptr);
+      }
+      const double chi2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+      pixel_sq[i] = chi2 * o.sigma2;
+      const double threshold = o.is_stereo() ? options.chi2_stereo : options.chi2_mono;
+      inlier[i] = ok && chi2 <= threshold && p.z() > 0.0;
+    });
+  };
+
+  // One stage: true when there was something to optimise; `stopped` when the stop flag ended it.
+  struct Stage {
+    double initial_cost = 0.0, final_cost = 0.0;
+    bool stopped = false;
+  };
+  std::vector<bool> pose_fixed(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k) pose_fixed[k] = keyframes[k].fixed;
   const auto run_schur_stage = [&](const std::vector<bool>& active, int iterations, bool robust, Stage* stage) {
     detail::SchurStage input;
     input.model = model;
@@ -201,9 +231,16 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
 
   // Stage 1: robust, everything in front of its camera (a point behind it would project mirrored).
   std::vector<bool> active(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const BaObservation& o = observations[i];
-    active[i] = transform_to_camera(poses[o.keyframe].data(), xyz[o.point]).z() > 0.0;
+  {
+    std::vector<std::uint8_t> in_front(n);
+    for (std::size_t k = 0; k < keyframes.size(); ++k) rotation[k] = pose_rotation(poses[k].data());
+    for_each_observation([&](std::int64_t index) {
+      const auto i = static_cast<std::size_t>(index);
+      const BaObservation& o = observations[i];
+      const PoseParams& x = poses[o.keyframe];
+      in_front[i] = (rotation[o.keyframe] * xyz[o.point] + Eigen::Vector3d(x[4], x[5], x[6])).z() > 0.0;
+    });
+    for (std::size_t i = 0; i < n; ++i) active[i] = in_front[i] != 0;
   }
   Stage stage;
   bool solved = false;
@@ -218,7 +255,8 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     if (stage.stopped || stop_requested()) {
       result.stopped = true;
     } else {
-      for (std::size_t i = 0; i < n; ++i) active[i] = passes(i, nullptr);
+      test_observations();
+      for (std::size_t i = 0; i < n; ++i) active[i] = inlier[i] != 0;
       Stage second;
       if (run_stage(active, options.second_iterations, false, &second)) {
         stage = second;
@@ -231,10 +269,10 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
 
   double sum_sq = 0.0;
   std::size_t coordinates = 0;
+  test_observations();
   for (std::size_t i = 0; i < n; ++i) {
-    double pixel_sq = 0.0;
-    if (passes(i, &pixel_sq)) {
-      sum_sq += pixel_sq;
+    if (inlier[i] != 0) {
+      sum_sq += pixel_sq[i];
       coordinates += observations[i].is_stereo() ? 3 : 2;
     } else {
       result.outlier_observations.push_back(i);

@@ -113,14 +113,48 @@ void add_pose_terms(const Mat36& J_pose, const Vec3& r, double w, Mat6& U, Vec6&
   g.noalias() += w * J_pose.transpose() * r;
 }
 
+/// The solver's arrays, kept by each thread that solves from one solve to the next: a window's
+/// ~10 MB, allocated anew per stage, cost more in page faults (serialised in the kernel when the
+/// split loops touch it first on many threads) than the arithmetic of a whole iteration.
+struct Buffers {
+  std::vector<Mat3> R;
+  std::vector<Mat63> W, Y;
+  std::vector<Mat3> V, V_inv;
+  std::vector<Vec3> g_p, step_p;
+  std::vector<Mat6> U;
+  std::vector<Vec6> g_c;
+  std::vector<double> cost;
+  std::vector<PoseRow> pose_rows;
+  Eigen::VectorXd step_c, b;
+  Eigen::MatrixXd S;
+};
+Buffers& thread_buffers() {
+  thread_local Buffers buffers;
+  return buffers;
+}
+
 class Solver {
  public:
-  Solver(const SchurStage& stage, std::vector<PoseParams>& poses, std::vector<Vec3>& points)
+  Solver(const SchurStage& stage, std::vector<PoseParams>& poses, std::vector<Vec3>& points, Buffers& buffers)
       : stage_(stage),
         poses_(poses),
         points_(points),
         parallel_(stage.parallel_for != nullptr && *stage.parallel_for),
-        layout_(make_schur_layout(stage.observations, *stage.active, *stage.pose_fixed, points.size())) {
+        layout_(make_schur_layout(stage.observations, *stage.active, *stage.pose_fixed, points.size())),
+        R_(buffers.R),
+        W_(buffers.W),
+        V_(buffers.V),
+        V_inv_(buffers.V_inv),
+        g_p_(buffers.g_p),
+        step_p_(buffers.step_p),
+        U_(buffers.U),
+        g_c_(buffers.g_c),
+        cost_(buffers.cost),
+        step_c_(buffers.step_c),
+        b_(buffers.b),
+        S_(buffers.S),
+        pose_rows_(buffers.pose_rows),
+        Y_(buffers.Y) {
     const std::size_t n_slots = layout_.observations.size();
     const auto n_points = layout_.points.size();
     const auto n_free = static_cast<std::size_t>(layout_.free_keyframes);
@@ -169,20 +203,24 @@ class Solver {
   std::vector<Vec3>& points_;
   const bool parallel_;
   const SchurLayout layout_;
-  std::vector<Mat3> R_;
+  // In the thread's Buffers.
+  std::vector<Mat3>& R_;
   // Linearisation at the current estimate (undamped). W per slot (zero for a fixed keyframe's).
-  std::vector<Mat63> W_;
-  std::vector<Mat3> V_, V_inv_;
-  std::vector<Vec3> g_p_, step_p_;
-  std::vector<Mat6> U_;
-  std::vector<Vec6> g_c_;
-  std::vector<double> cost_;  // per slot, summed in slot order
+  std::vector<Mat63>& W_;
+  std::vector<Mat3>& V_;
+  std::vector<Mat3>& V_inv_;
+  std::vector<Vec3>& g_p_;
+  std::vector<Vec3>& step_p_;
+  std::vector<Mat6>& U_;
+  std::vector<Vec6>& g_c_;
+  std::vector<double>& cost_;  // per slot, summed in slot order
   // The reduced system S (upper triangle) and its side b.
-  Eigen::VectorXd step_c_, b_;
-  Eigen::MatrixXd S_;
+  Eigen::VectorXd& step_c_;
+  Eigen::VectorXd& b_;
+  Eigen::MatrixXd& S_;
   // Split work only: the free slots' pose rows in keyframe order; Y = W V^-1 per free slot.
-  std::vector<PoseRow> pose_rows_;
-  std::vector<Mat63> Y_;
+  std::vector<PoseRow>& pose_rows_;
+  std::vector<Mat63>& Y_;
 };
 
 Mat3 Solver::damped(Mat3 H, double mu) const {
@@ -310,9 +348,17 @@ bool Solver::solve_step(double mu) {
     S_.block<6, 6>(o, o) = U;
     b_.segment<6>(o) = -g_c_[f];
   }
+  // V^-1 per point, and (split) its Y = W V^-1 in the same pass.
   std::atomic<bool> ok{true};
   for_each_index(layout_.points.size(), [&](std::size_t j) {
-    if (!invert_point(j, mu)) ok.store(false, std::memory_order_relaxed);
+    if (!invert_point(j, mu)) {
+      ok.store(false, std::memory_order_relaxed);
+      return;
+    }
+    if (!parallel_) return;
+    for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
+      if (layout_.free_of[a] >= 0) Y_[a] = W_[a] * V_inv_[j];
+    }
   });
   if (!ok.load()) return false;
   if (parallel_) {
@@ -367,13 +413,8 @@ void Solver::reduce_in_one_sweep() {
   }
 }
 
-// The same sums, split: Y by point, then each block of S and each keyframe's part of b on its own.
+// The same sums, split (Y is ready): each block of S and each keyframe's part of b on its own.
 void Solver::reduce_split() {
-  for_each_index(layout_.points.size(), [&](std::size_t j) {
-    for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
-      if (layout_.free_of[a] >= 0) Y_[a] = W_[a] * V_inv_[j];
-    }
-  });
   const std::size_t blocks = layout_.blocks.size();
   for_each_index(blocks + U_.size(), [&](std::size_t t) {
     if (t >= blocks) {
@@ -498,7 +539,7 @@ SchurSummary Solver::run() {
 
 SchurSummary schur_levenberg_marquardt(const SchurStage& stage, std::vector<PoseParams>& poses,
                                        std::vector<Eigen::Vector3d>& points) {
-  Solver solver(stage, poses, points);
+  Solver solver(stage, poses, points, thread_buffers());
   return solver.run();
 }
 
