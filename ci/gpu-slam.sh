@@ -22,7 +22,8 @@
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
 # Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
 # runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BA_BENCH
-# (0: no local BA benchmark), PORTA_SLAM_LOOP
+# (0: no local BA benchmark), PORTA_SLAM_RUN_ARGS (more `portaslam run` options for every run, e.g.
+# "--mapping-threads 1" for a same-machine comparison), PORTA_SLAM_LOOP
 # (0: no street-loop determinism check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
 # PORTA_JOBS, PORTA_SLAM_BUILD_DIR (default build-gpu-slam), PORTA_SLAM_WORK (default OUT_DIR/work:
@@ -111,8 +112,9 @@ stop_sampler() { [ -n "$sampler" ] && kill "$sampler" 2>/dev/null && wait "$samp
 run_slam() {
   local name="$1"
   shift
-  "$binary" run --dataset kitti "$seq" --out "$work/$name" --json "$out_dir/$name.json" --quiet "$@" \
-    >"$out_dir/$name.log" 2>&1
+  # shellcheck disable=SC2086  # PORTA_SLAM_RUN_ARGS is split on spaces on purpose
+  "$binary" run --dataset kitti "$seq" --out "$work/$name" --json "$out_dir/$name.json" --quiet \
+    ${PORTA_SLAM_RUN_ARGS:-} "$@" >"$out_dir/$name.log" 2>&1
   local rc=$?
   if [ $rc != 0 ]; then
     say "$name FAILED (exit $rc):"
