@@ -76,6 +76,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.localization_only = options.localization;
   settings.global_bundle_adjustment = options.global_ba;
   settings.mapping_threads = options.mapping_threads;
+  settings.bundle_adjustment_every = options.ba_every;
   settings.validate();
   return settings;
 }
@@ -428,8 +429,10 @@ std::string slam_run_options_usage() {
          "  --backend NAME      cpu (default), cuda, vulkan or opencl\n"
          "  --device D          device index or name substring for a GPU backend\n"
          "  --threads N         cpu backend worker threads (default: all)\n"
-         "  --mapping-threads N local mapping's threads for triangulation (default 0: half the\n"
-         "                      hardware threads, at most 8, with 8 or more; else 1); same map\n"
+         "  --mapping-threads N local mapping's threads for triangulation and local BA (default 0:\n"
+         "                      half the hardware threads, at most 8, with 8 or more; else 1); same map\n"
+         "  --ba-every N        realtime: local BA on at least every Nth keyframe even while more\n"
+         "                      wait (default 0: only when none waits, as ORB-SLAM2)\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
@@ -465,6 +468,8 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.threads = parse_threads(option, cursor.value(option));
   } else if (option == "--mapping-threads") {
     options.mapping_threads = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxMappingThreads);
+  } else if (option == "--ba-every") {
+    options.ba_every = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentEvery);
   } else if (option == "--mode") {
     const std::string mode = cursor.value(option);
     if (mode == "realtime") {

@@ -206,7 +206,11 @@ void LocalMapper::process(KeyFrame* keyframe) {
     times.fuse_ns = work_ns();
   }
 
-  if (queued_keyframes() == 0) {
+  // Local BA when no keyframe waits (ORB-SLAM2), or when it is due (bundle_adjustment_every): then
+  // to the end, whatever arrives meanwhile.
+  const int every = settings_.bundle_adjustment_every;
+  const bool due = every > 0 && keyframes_without_ba_ + 1 >= every;
+  if (queued_keyframes() == 0 || due) {
     begin_step();
     bool enough_keyframes = false;
     {
@@ -214,8 +218,9 @@ void LocalMapper::process(KeyFrame* keyframe) {
       enough_keyframes = map_.num_keyframes() > 2;
     }
     if (enough_keyframes) {
-      mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &abort_ba_, [this] { pause_point(); },
-                                       pool);
+      mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, due ? &stop_requested_ : &abort_ba_,
+                                       [this] { pause_point(); }, pool);
+      times.bundle_adjustment_ran = true;
       times.bundle_adjustment_spread = pool != nullptr;
     }
     times.bundle_adjustment_ns = work_ns();
@@ -230,6 +235,7 @@ void LocalMapper::process(KeyFrame* keyframe) {
     }
     times.cull_keyframes_ns = work_ns();
   }
+  keyframes_without_ba_ = times.bundle_adjustment_ran ? 0 : keyframes_without_ba_ + 1;
   times.total_ns = elapsed_ns(start) - (paused_ns_ - paused_at_start);
   times_.push_back(times);
   {

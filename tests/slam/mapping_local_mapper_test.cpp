@@ -217,6 +217,47 @@ TEST(Mapping, ParallelMappingGivesTheSameMapAsOneThread) {
   EXPECT_GE(spread(mapper_three), static_cast<int>(mapper_three.times().size()) - 3);  // BA from the third on
 }
 
+// Keyframes queued together: local BA runs only where none waits (the last) by default, and on
+// at least every second one with bundle_adjustment_every = 2.
+TEST(Mapping, BundleAdjustmentEveryNthKeyframeRunsWhileKeyframesWait) {
+  SceneSpec spec;
+  spec.keyframes = 9;
+  spec.step_m = 0.15;  // the first keyframe still in view of the last
+  const SyntheticScene scene{spec};
+  ASSERT_EQ(scene.true_T_cw.size(), 9u);
+  for (const int every : {0, 2}) {
+    SlamSettings settings = test_settings();
+    settings.bundle_adjustment_every = every;
+    Map map;
+    LocalMapper mapper(settings, map);
+    TrackingStandIn tracking(scene, map, mapper);
+    for (std::size_t k = 0; k < 3; ++k) {  // one at a time: the map then has enough keyframes for BA
+      tracking.insert(k, scene.true_T_cw[k]);
+      mapper.process_all();
+    }
+    for (std::size_t k = 3; k < 9; ++k) tracking.insert(k, scene.true_T_cw[k]);
+    mapper.process_all();
+    std::vector<int> ran;
+    for (std::size_t k = 3; k < 9; ++k) {
+      if (mapper.times()[k].bundle_adjustment_ran) ran.push_back(static_cast<int>(k));
+    }
+    EXPECT_TRUE(mapper.times()[2].bundle_adjustment_ran);
+    const std::vector<int> expected = every == 0 ? std::vector<int>{8} : std::vector<int>{4, 6, 8};
+    EXPECT_EQ(ran, expected) << "every " << every;
+  }
+}
+
+TEST(SlamSettings, BundleAdjustmentEveryIsBounded) {
+  SlamSettings settings = test_settings();
+  EXPECT_NO_THROW(settings.validate());
+  settings.bundle_adjustment_every = -1;
+  EXPECT_THROW(settings.validate(), std::invalid_argument);
+  settings.bundle_adjustment_every = SlamSettings::kMaxBundleAdjustmentEvery + 1;
+  EXPECT_THROW(settings.validate(), std::invalid_argument);
+  settings.bundle_adjustment_every = SlamSettings::kMaxBundleAdjustmentEvery;
+  EXPECT_NO_THROW(settings.validate());
+}
+
 /// Waits until the mapping thread has processed everything queued (queue first, then idle: the
 /// thread clears idle under the queue lock when it takes a keyframe).
 void wait_until_processed(const LocalMapper& mapper) {

@@ -38,6 +38,7 @@ struct MappingTimes {
   std::int64_t bundle_adjustment_ns = 0;
   std::int64_t cull_keyframes_ns = 0;
   std::int64_t total_ns = 0;
+  bool bundle_adjustment_ran = false;     ///< local BA ran (not skipped: keyframes waiting)
   bool bundle_adjustment_spread = false;  ///< its loops ran on the mapping pool
 };
 
@@ -119,6 +120,7 @@ class LocalMapper {
   std::int64_t last_insert_ns_ = 0;
   std::int64_t keyframe_interval_ns_ = 0;
   std::int64_t last_mapping_ns_ = 0;
+  int keyframes_without_ba_ = 0;  ///< processed since local BA last ran (mapping thread only)
   std::function<void(KeyFrame*)> keyframe_processed_;
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
   std::vector<MappingTimes> times_;

@@ -46,13 +46,20 @@ struct SlamSettings {
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
   bool mapping_yields_to_tracking = true;
-  /// Threads of local mapping's parallel steps (triangulation's epipolar searches): 0 = one per
-  /// two hardware threads, at most 8, on a machine of 8 hardware threads or more, else 1 (a small
-  /// machine's cores are the frontend's and tracking's). The map is the same for any count.
+  /// Threads of local mapping's parallel steps (triangulation's epipolar searches, local bundle
+  /// adjustment's loops): 0 = one per two hardware threads, at most 8, on a machine of 8 hardware
+  /// threads or more, else 1 (a small machine's cores are the frontend's and tracking's). The map
+  /// is the same for any count. Realtime mode uses them only while keyframes come faster than
+  /// mapping completes them (at camera rate one thread keeps up, and more would only add CPU time).
   int mapping_threads = 0;
   static constexpr int kMaxMappingThreads = 64;
   /// mapping_threads with 0 resolved for this machine.
   int resolved_mapping_threads() const;
+  /// Realtime mode: local bundle adjustment runs, to the end, at least on every Nth keyframe even
+  /// while more keyframes wait. 0 = only when none waits (ORB-SLAM2: as fast as possible, mapping
+  /// then falls behind and skips it). The deterministic mode never has keyframes waiting.
+  int bundle_adjustment_every = 0;
+  static constexpr int kMaxBundleAdjustmentEvery = 1000;
 
   /// Loop closing (loop_closer.hpp): loops are detected, verified and corrected. false: local
   /// mapping only (the place-recognition database is still kept, for relocalisation).
