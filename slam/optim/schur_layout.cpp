@@ -120,7 +120,8 @@ SchurLayout make_schur_layout(std::span<const BaObservation> observations, const
   layout.terms.resize(layout.block_begin.back());
   std::vector<std::size_t> next(layout.block_begin.begin(), layout.block_begin.end() - 1);
   for_each_term(layout, [&](std::uint32_t x, std::uint32_t y, bool both, int row, int col) {
-    const std::size_t id = block_of[static_cast<std::size_t>(row) * n_free + static_cast<std::size_t>(col)] - 1;
+    const std::size_t id =
+        block_of[static_cast<std::size_t>(row) * n_free + static_cast<std::size_t>(col)] - 1;
     layout.terms[next[id]++] = {x, y, both};
   });
   return layout;

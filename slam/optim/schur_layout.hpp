@@ -18,11 +18,11 @@ namespace porta::slam::optim::detail {
 struct SchurLayout {
   // By point. Observation slots a (0 .. observations.size()) are the active observations in point
   // order, then input order; every per-observation array below is indexed by slot.
-  std::vector<std::size_t> points;       ///< points with an active observation, ascending
-  std::vector<std::size_t> group_begin;  ///< per point, into the slots; points.size() + 1 entries
+  std::vector<std::size_t> points;        ///< points with an active observation, ascending
+  std::vector<std::size_t> group_begin;   ///< per point, into the slots; points.size() + 1 entries
   std::vector<std::size_t> observations;  ///< per slot: its index in the input
   std::vector<std::uint32_t> point_of;    ///< per slot: its point's place in `points`
-  std::vector<int> free_of;               ///< per slot: its keyframe's place among the free ones, -1 when fixed
+  std::vector<int> free_of;  ///< per slot: its keyframe's place among the free ones, -1 when fixed
 
   // By free keyframe: the slots of its observations, ascending.
   std::vector<int> free_index;  ///< per keyframe: its place among the free ones, -1 when fixed

@@ -13,8 +13,6 @@
 // split by point (Jacobians, V^-1, the points' steps), by free keyframe (U, g_c, b) and by block
 // of the reduced system, each adding its terms in the sweep's order (schur_layout.hpp).
 #include "schur_solver.hpp"
-#include "huber_weight.hpp"
-#include "schur_layout.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -22,6 +20,9 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+
+#include "huber_weight.hpp"
+#include "schur_layout.hpp"
 
 namespace porta::slam::optim::detail {
 namespace {
@@ -65,7 +66,8 @@ bool residual_at(const SchurStage& stage, std::size_t i, const Vec3& p, Vec3& r,
   }
   const double observation[2] = {o.u_left, o.v};
   Eigen::Matrix<double, 2, 3> d2;
-  if (!camera_residual<2>(stage.model, observation, s, p, r.data(), dr_dp == nullptr ? nullptr : &d2)) return false;
+  if (!camera_residual<2>(stage.model, observation, s, p, r.data(), dr_dp == nullptr ? nullptr : &d2))
+    return false;
   if (dr_dp != nullptr) {
     dr_dp->topRows<2>() = d2;
     dr_dp->row(2).setZero();
@@ -88,8 +90,8 @@ struct Linearised {
   Mat3 J_point;
   Mat36 J_pose;
 };
-bool linearise_observation(const SchurStage& stage, std::size_t i, const Mat3& R, const PoseParams& x, const Vec3& X,
-                           bool free_pose, Linearised& l) {
+bool linearise_observation(const SchurStage& stage, std::size_t i, const Mat3& R, const PoseParams& x,
+                           const Vec3& X, bool free_pose, Linearised& l) {
   const Vec3 p = R * X + Vec3(x[4], x[5], x[6]);
   Mat3 dr_dp;
   if (!residual_at(stage, i, p, l.r, &dr_dp)) return false;
@@ -185,7 +187,8 @@ class Solver {
       for (std::size_t i = 0; i < n; ++i) fn(i);
       return;
     }
-    (*stage_.parallel_for)(static_cast<std::int64_t>(n), [&fn](std::int64_t i) { fn(static_cast<std::size_t>(i)); });
+    (*stage_.parallel_for)(static_cast<std::int64_t>(n),
+                           [&fn](std::int64_t i) { fn(static_cast<std::size_t>(i)); });
   }
   Mat3 damped(Mat3 H, double mu) const;
   bool cost_at(const std::vector<PoseParams>& poses, const std::vector<Vec3>& points, double& cost);
@@ -427,7 +430,8 @@ void Solver::reduce_split() {
       return;
     }
     const SchurLayout::Block& block = layout_.blocks[t];
-    auto block_of_S = S_.block<6, 6>(6 * static_cast<Eigen::Index>(block.row), 6 * static_cast<Eigen::Index>(block.col));
+    auto block_of_S =
+        S_.block<6, 6>(6 * static_cast<Eigen::Index>(block.row), 6 * static_cast<Eigen::Index>(block.col));
     // The same subtractions in the same order, on a contiguous copy (registers, not S's columns).
     Mat6 S = block_of_S;
     const SchurLayout::Term* const end = layout_.terms.data() + layout_.block_begin[t + 1];
@@ -496,16 +500,19 @@ SchurSummary Solver::run() {
         manifold.Plus(poses_[k].data(), d.data(), candidate_poses[k].data());
         const Mat6& U = U_[static_cast<std::size_t>(f)];
         for (int r = 0; r < 6; ++r) {
-          predicted += d[r] * (mu * std::clamp(U(r, r), kMinDiagonal, kMaxDiagonal) * d[r] - g_c_[static_cast<std::size_t>(f)][r]);
+          predicted += d[r] * (mu * std::clamp(U(r, r), kMinDiagonal, kMaxDiagonal) * d[r] -
+                               g_c_[static_cast<std::size_t>(f)][r]);
         }
         step_sq += d.squaredNorm();
-        for (int r = 0; r < 7; ++r) x_sq += poses_[k][static_cast<std::size_t>(r)] * poses_[k][static_cast<std::size_t>(r)];
+        for (int r = 0; r < 7; ++r)
+          x_sq += poses_[k][static_cast<std::size_t>(r)] * poses_[k][static_cast<std::size_t>(r)];
       }
       for (std::size_t j = 0; j < layout_.points.size(); ++j) {
         const std::size_t p = layout_.points[j];
         const Vec3& d = step_p_[j];
         candidate_points[p] = points_[p] + d;
-        for (int r = 0; r < 3; ++r) predicted += d[r] * (mu * std::clamp(V_[j](r, r), kMinDiagonal, kMaxDiagonal) * d[r] - g_p_[j][r]);
+        for (int r = 0; r < 3; ++r)
+          predicted += d[r] * (mu * std::clamp(V_[j](r, r), kMinDiagonal, kMaxDiagonal) * d[r] - g_p_[j][r]);
         step_sq += d.squaredNorm();
         x_sq += points_[p].squaredNorm();
       }
