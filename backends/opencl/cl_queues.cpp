@@ -5,6 +5,7 @@
 #include <string>
 
 #include "opencl/cl_errors.hpp"
+#include "opencl/cl_types.hpp"
 #include "opencl/opencl_backend.hpp"
 
 namespace porta::opencl {
@@ -54,19 +55,31 @@ class OpenClHostBuffer final : public HostBuffer {
 
 // ---- Kernels -------------------------------------------------------------------------------------
 
+Range Range::tiles(std::size_t tiles) {
+  return {{tiles * kTileW, kTileH}, {kTileW, kTileH}, 2};
+}
+
 void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& range) {
   std::size_t global[2] = {range.global[0], range.global[1]};
   if (global[0] == 0 || (range.dims == 2 && global[1] == 0)) return;
-  const bool has_local = range.local[0] != 0;
+  Range r = range;
+  if (r.local[0] == 0 && work_groups_) {
+    // GPUs: a work-group size of our choosing, the global size rounded up to it (every kernel
+    // tests its ids against its real extent). Left to the driver, a size that divides the global
+    // size exactly can be a handful of work-items (a prime number of cells: groups of 1).
+    r.local[0] = r.dims == 2 ? kTileW : 64;
+    r.local[1] = r.dims == 2 ? kTileH : 0;
+  }
+  const bool has_local = r.local[0] != 0;
   if (has_local) {
-    for (int d = 0; d < range.dims; ++d) {
-      const std::size_t l = range.local[d] ? range.local[d] : 1;
+    for (int d = 0; d < r.dims; ++d) {
+      const std::size_t l = r.local[d] ? r.local[d] : 1;
       global[d] = (global[d] + l - 1) / l * l;
     }
   }
-  std::size_t local[2] = {range.local[0], range.local[1] ? range.local[1] : 1};
+  std::size_t local[2] = {r.local[0], r.local[1] ? r.local[1] : 1};
   cl_event event = nullptr;
-  check(clEnqueueNDRangeKernel(queue(), k, static_cast<cl_uint>(range.dims), nullptr, global,
+  check(clEnqueueNDRangeKernel(queue(), k, static_cast<cl_uint>(r.dims), nullptr, global,
                                has_local ? local : nullptr, 0, nullptr, profile_kernels_ ? &event : nullptr),
         "clEnqueueNDRangeKernel", kernel_name);
   if (event != nullptr) timed_.push_back({current_, kernel_name, event});

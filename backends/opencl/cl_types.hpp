@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/layout.hpp"
 
 namespace porta::opencl {
@@ -31,6 +32,15 @@ struct ClCells {
 struct ClLevelInts {
   cl_int v[kMaxLevels];
 };
+/// common.cl porta_tiles: the work-groups of a kernel that runs all levels in one launch, one per
+/// kTileW x kTileH tile (checks::tile_levels).
+inline constexpr int kTileW = 32;
+inline constexpr int kTileH = 8;
+struct ClTiles {
+  cl_int first[kMaxLevels + 4];
+  cl_int across[kMaxLevels];
+};
+static_assert(sizeof(ClTiles) == 16 * 4 + 12 * 4);
 static_assert(sizeof(ClLevels) == 12 * 16 + 16);
 static_assert(sizeof(ClCells) == 12 * 32 + 16);
 
@@ -55,6 +65,20 @@ inline ClCells to_cl(const CellLayout& cells) {
     const auto& l = cells.levels[n];
     c.level[n] = {l.cell_w, l.cell_h, l.cols, l.rows, l.first_cell, {0, 0, 0}};
   }
+  return c;
+}
+
+/// The tiles of `layout` (at most kMaxLevels levels) and their total.
+inline ClTiles tiles_of(const PyramidLayout& layout, const char* kernel, std::size_t& total) {
+  if (layout.num_levels() > kMaxLevels) throw BackendError("opencl: more than 12 pyramid levels");
+  const checks::LevelTiles t = checks::tile_levels("opencl", kernel, layout, kTileW, kTileH);
+  ClTiles c{};
+  for (std::size_t n = 0; n < t.across.size(); ++n) {
+    c.first[n] = t.first[n];
+    c.across[n] = t.across[n];
+  }
+  c.first[t.across.size()] = t.first.back();
+  total = static_cast<std::size_t>(t.first.back());
   return c;
 }
 

@@ -52,9 +52,16 @@ ClLevels rows_of_levels(const PyramidLayout& layout, std::size_t& max_width, std
 
 constexpr int kCompactBlock = 128;  // cells per work-item of the compaction
 
+struct ClPfa {  // detect.cl porta_pfa
+  ClLevelInts scales;
+  cl_int total_cells, num_scales, width0, height0, reach;
+};
+static_assert(sizeof(ClPfa) == 48 + 5 * 4);
+
 }  // namespace
 
-// §3.3: one launch over every pixel of every level.
+// §3.3, one launch. GPUs: one work-group per 32 x 8 tile of any level, the tile read once into
+// local memory (fast_tiled); elsewhere one work-item per pixel of every level (fast_crf).
 void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
   check_same_level_sizes(layout, response_layout, "fast_crf");
@@ -62,6 +69,14 @@ void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
   require_bytes(lut, 65536, "fast_crf", "the FAST table");
   for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
   for (const Plane& p : response_layout.levels) require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  if (work_groups()) {
+    std::size_t tiles = 0;
+    const ClTiles t = tiles_of(layout, "fast_crf", tiles);
+    if (tiles == 0) return;
+    launch("detect", "fast_tiled", Range::tiles(tiles), pyramid, to_cl(layout), lut, responses,
+           to_cl(response_layout), t, static_cast<cl_int>(params.threshold), static_cast<cl_int>(params.edge));
+    return;
+  }
   std::size_t max_width = 0, rows = 0;
   const ClLevels src = rows_of_levels(layout, max_width, rows);
   if (rows == 0) return;
@@ -109,8 +124,9 @@ void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
          to_cl(response_layout), to_cl(cell_layout), cells);
 }
 
-// §3.5: three launches over the cells (accumulate, decide, apply) with two level-0 sized scratch
-// maps that are zero between calls (zero when allocated, restored by the last step).
+// §3.5: three steps over the cells (accumulate, decide, apply) with two level-0 sized scratch maps
+// that are zero between calls (zero when allocated, restored by the last step). GPUs: the three
+// in one work-group (pfa_group); elsewhere three launches.
 void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
   const int width0 = params.level0_width, height0 = params.level0_height;
   if (width0 <= 0 || height0 <= 0)
@@ -131,28 +147,40 @@ void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
                 "pfa_filter", "the cell array");
 
   const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
-  ClLevelInts scales{};
-  for (int n = 0; n < num_scales; ++n) scales.v[n] = params.scales_q16[static_cast<std::size_t>(n)];
-  const int half = params.window / 2;
+  ClPfa p{};
+  for (int n = 0; n < num_scales; ++n) p.scales.v[n] = params.scales_q16[static_cast<std::size_t>(n)];
+  p.total_cells = total;
+  p.num_scales = num_scales;
+  p.width0 = width0;
+  p.height0 = height0;
+  p.reach = params.window / 2;
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
+  if (work_groups()) {
+    launch("detect", "pfa_group", Range::linear(256, 256), cells, p, sum_map, level_map, rejected);
+    return;
+  }
   const Range range = Range::linear(static_cast<std::size_t>(total));
-  launch("detect", "pfa_accumulate", range, cells, static_cast<cl_int>(total), scales, static_cast<cl_int>(num_scales),
-         static_cast<cl_int>(width0), static_cast<cl_int>(height0), sum_map, level_map);
-  launch("detect", "pfa_decide", range, cells, static_cast<cl_int>(total), scales, static_cast<cl_int>(num_scales),
-         static_cast<cl_int>(width0), static_cast<cl_int>(height0), static_cast<cl_int>(half), sum_map, level_map,
-         rejected);
-  launch("detect", "pfa_apply", range, cells, static_cast<cl_int>(total), scales, static_cast<cl_int>(num_scales),
-         static_cast<cl_int>(width0), static_cast<cl_int>(height0), sum_map, level_map, rejected);
+  launch("detect", "pfa_accumulate", range, cells, p, sum_map, level_map);
+  launch("detect", "pfa_decide", range, cells, p, sum_map, level_map, rejected);
+  launch("detect", "pfa_apply", range, cells, p, sum_map, level_map, rejected);
 }
 
-// Canonical compaction: per-block counts, a one-work-item scan that also writes the count, then a
-// per-block scatter; the order is the cell order whatever the device.
+// Canonical compaction. GPUs: one work-group scans the cells in tiles (compact_group), one launch.
+// Elsewhere: per-block counts, a one-work-item scan that also writes the count, then a per-block
+// scatter. The order is the cell order whatever the device.
 void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
   // Records past the items buffer are not written (the cpu backend would write past its end).
   const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total_cells, out);
   const int total = std::max(total_cells, 0);
+  if (work_groups()) {
+    // Without items, the cell array stands in for the unused argument (nothing is written to it).
+    const Buffer& items = capacity > 0 ? *out.items : cells;
+    launch("detect", "compact_group", Range::linear(256, 256), cells, static_cast<cl_int>(total), items,
+           static_cast<cl_uint>(capacity), *out.count, static_cast<cl_ulong>(out.count_offset_bytes));
+    return;
+  }
 
   const int num_blocks = (total + kCompactBlock - 1) / kCompactBlock;
   Buffer& blocks = scratch("compact_blocks", static_cast<std::size_t>(std::max(num_blocks, 1)) * 4);

@@ -51,11 +51,21 @@ void OpenClBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, 
   }
 }
 
-// §3.7: two launches over all levels, the horizontal pass into a packed uint16 scratch plane per
-// level ("blur_h"), then the vertical pass into `blurred`.
+// §3.7. GPUs: one launch over the 32 x 8 tiles of all levels, both passes through local memory
+// (blur_tiled). Elsewhere, or in place: two launches over all levels, the horizontal pass into a
+// packed uint16 scratch plane per level ("blur_h"), then the vertical pass into `blurred`.
 void OpenClBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
                          const std::array<std::int32_t, 7>& taps) {
   checks::check_blur(kBackend, pyramid, layout, blurred, taps, kImagePlanes);
+  if (work_groups() && &pyramid != &blurred) {
+    std::size_t tiles = 0;
+    const ClTiles t = tiles_of(layout, "blur", tiles);
+    if (tiles == 0) return;
+    ClLevelInts cl_taps{};
+    for (int k = 0; k < 7; ++k) cl_taps.v[k] = taps[static_cast<std::size_t>(k)];
+    launch("image", "blur_tiled", Range::tiles(tiles), pyramid, to_cl(layout), blurred, t, cl_taps);
+    return;
+  }
   ClLevels cl_layout = to_cl(layout);
   ClLevelInts scratch_offset{};
   std::int64_t elements = 0;

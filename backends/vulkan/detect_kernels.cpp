@@ -19,6 +19,11 @@ struct FastCrfParams {  // fast_crf.comp (parameter buffer)
   GlslLevels src, dst;
   std::int32_t eps, edge, pad[2];
 };
+struct FastTiledParams {  // fast_tiled.comp (parameter buffer)
+  GlslLevels src, dst;
+  GlslTiles tiles;
+  std::int32_t eps, edge, pad[2];
+};
 struct CullCellsParams {  // cull_cells.comp and cull_cells_small.comp (parameter buffer)
   GlslLevels layout;
   GlslCells cells;
@@ -43,7 +48,9 @@ constexpr std::uint32_t kCompactBlock = 128;  // cells per invocation of the com
 
 }  // namespace
 
-// §3.3: one invocation per pixel of every level (rows of all levels end to end), one dispatch.
+// §3.3, one dispatch. GPUs: one workgroup per 32 x 8 tile of any level, the tile read once into
+// shared memory (fast_tiled.comp). Elsewhere: one invocation per pixel of every level (rows of all
+// levels end to end).
 void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout,
                              const porta::FastParams& params) {
@@ -53,6 +60,17 @@ void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
   for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
   for (const Plane& p : response_layout.levels)
     require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  if (work_groups()) {
+    FastTiledParams t{};
+    t.src = to_glsl(layout, "fast_crf");
+    t.dst = to_glsl(response_layout, "fast_crf");
+    std::uint64_t tiles = 0;
+    t.tiles = tiles_of(layout, "fast_crf", tiles);
+    t.eps = params.threshold;
+    t.edge = params.edge;
+    rt().dispatch("fast_tiled", {&pyramid, &lut, &responses}, t, Work::groups(tiles));
+    return;
+  }
   FastCrfParams p{};
   std::uint64_t max_width = 0, rows = 0;
   p.src = rows_of_levels(layout, "fast_crf", max_width, rows);
@@ -96,9 +114,9 @@ void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
   }
 }
 
-// §3.5: three dispatches over the cells (accumulate with order-independent atomics, decide,
-// apply) with two level-0 sized scratch maps that are zero between calls (zero when allocated,
-// restored by the last step).
+// §3.5: three steps over the cells (accumulate with order-independent atomics, decide, apply) with
+// two level-0 sized scratch maps that are zero between calls (zero when allocated, restored by the
+// last step). GPUs: all three in one workgroup (pfa_group.comp); elsewhere three dispatches.
 void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const porta::PfaParams& params) {
   const int width0 = params.level0_width, height0 = params.level0_height;
   if (width0 <= 0 || height0 <= 0)
@@ -128,6 +146,10 @@ void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
+  if (work_groups()) {
+    rt().dispatch("pfa_group", {&cells, &sum_map, &level_map, &rejected}, p, Work::groups(1));
+    return;
+  }
   const Work work = Work::items(static_cast<std::uint64_t>(total));
   rt().dispatch("pfa_accumulate", {&cells, &sum_map, &level_map, &rejected}, p, work);
   rt().dispatch("pfa_decide", {&cells, &sum_map, &level_map, &rejected}, p, work);

@@ -28,6 +28,12 @@ struct BlurParams {  // blur_horizontal.comp, blur_vertical.comp (parameter buff
   std::int32_t taps[kMaxLevels];
 };
 static_assert(sizeof(BlurParams) == 208 + 48 + 48);
+struct BlurTiledParams {  // blur_tiled.comp (parameter buffer)
+  GlslLevels layout;
+  GlslTiles tiles;
+  std::int32_t taps[8];
+};
+static_assert(sizeof(BlurTiledParams) == 208 + 112 + 32);
 
 }  // namespace
 
@@ -65,11 +71,21 @@ void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, 
   }
 }
 
-// §3.7: two dispatches over all levels: the horizontal pass into a packed uint16 scratch plane per
-// level ("blur_h"), then the vertical pass into `blurred`.
+// §3.7. GPUs: one dispatch over the 32 x 8 tiles of all levels, both passes through shared memory
+// (blur_tiled.comp). Elsewhere, or in place: two dispatches over all levels, the horizontal pass
+// into a packed uint16 scratch plane per level ("blur_h"), then the vertical pass into `blurred`.
 void VulkanBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buffer& blurred,
                          const std::array<std::int32_t, 7>& taps) {
   checks::check_blur(kBackend, pyramid, layout, blurred, taps, kPlaneLimits);
+  if (work_groups() && &pyramid != &blurred) {
+    BlurTiledParams params{};
+    params.layout = to_glsl(layout, "blur");
+    std::uint64_t tiles = 0;
+    params.tiles = tiles_of(layout, "blur", tiles);
+    for (int k = 0; k < 7; ++k) params.taps[k] = taps[static_cast<std::size_t>(k)];
+    rt().dispatch("blur_tiled", {&pyramid, &blurred}, params, Work::groups(tiles));
+    return;
+  }
   BlurParams params{};
   std::uint64_t max_width = 0, rows = 0;
   params.layout = rows_of_levels(layout, "blur", max_width, rows);

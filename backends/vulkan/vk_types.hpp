@@ -34,6 +34,15 @@ struct GlslCells {
   GlslLevelCells level[kMaxLevels];
   std::int32_t count, total_cells, pad[2];
 };
+/// common.glsl Tiles: the workgroups of a kernel that runs all levels in one dispatch, one per
+/// kTileW x kTileH tile (checks::tile_levels).
+inline constexpr int kTileW = 32;
+inline constexpr int kTileH = 8;
+struct GlslTiles {
+  std::int32_t first[kMaxLevels + 4];
+  std::int32_t across[kMaxLevels];
+};
+static_assert(sizeof(GlslTiles) == 16 * 4 + 12 * 4);
 static_assert(sizeof(GlslPlane) == 16);
 static_assert(sizeof(GlslLevels) == 12 * 16 + 16);
 static_assert(sizeof(GlslCells) == 12 * 32 + 16);
@@ -102,6 +111,19 @@ inline GlslLevels rows_of_levels(const PyramidLayout& layout, const char* kernel
     rows += static_cast<std::uint64_t>(l.level[n].height);
   }
   return l;
+}
+
+/// The tiles of `layout` (at most kMaxLevels levels, to_glsl checks) and their total.
+inline GlslTiles tiles_of(const PyramidLayout& layout, const char* kernel, std::uint64_t& total) {
+  const checks::LevelTiles t = checks::tile_levels(kBackend, kernel, layout, kTileW, kTileH);
+  GlslTiles g{};
+  for (std::size_t n = 0; n < t.across.size() && n < static_cast<std::size_t>(kMaxLevels); ++n) {
+    g.first[n] = t.first[n];
+    g.across[n] = t.across[n];
+  }
+  g.first[std::min<std::size_t>(t.across.size(), kMaxLevels)] = t.first.back();
+  total = static_cast<std::uint64_t>(t.first.back());
+  return g;
 }
 
 /// The list slots a kernel launched over a device list's capacity may touch

@@ -9,7 +9,10 @@
 namespace porta::vulkan {
 
 VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make_shared<Runtime>(options)) {
-  work_groups_ = !runtime_->context().cpu_device();
+  // The workgroup kernels have up to 256 invocations, 32 x 8 in the tiled ones.
+  const VkPhysicalDeviceLimits& limits = runtime_->context().limits();
+  work_groups_ = !runtime_->context().cpu_device() && limits.maxComputeWorkGroupInvocations >= 256 &&
+                 limits.maxComputeWorkGroupSize[0] >= 256 && limits.maxComputeWorkGroupSize[1] >= 8;
   if (const char* env = std::getenv("PORTA_VULKAN_WORK_GROUPS"); env != nullptr && *env != '\0') {
     const std::string value = env;
     if (value != "on" && value != "off")

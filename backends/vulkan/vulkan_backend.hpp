@@ -112,8 +112,10 @@ class VulkanBackend final : public Backend {
   /// share scratch memory.
   Buffer& scratch(const std::string& name, std::size_t bytes);
   /// Kernels with a workgroup per item (orient.comp) rather than an invocation per item
-  /// (orient_per_item.comp), and compaction in one workgroup (compact_group.comp) rather than three
-  /// dispatches: on GPUs, not on a CPU device (lavapipe), where they are slower.
+  /// (orient_per_item.comp), per 32 x 8 tile of all levels with shared memory (fast_tiled.comp,
+  /// blur_tiled.comp: one dispatch where the blur had two), and PFA and compaction in one workgroup
+  /// (pfa_group.comp, compact_group.comp) rather than three dispatches each: on GPUs that run
+  /// workgroups of 256, not on a CPU device (lavapipe), where they are slower.
   /// $PORTA_VULKAN_WORK_GROUPS=on or off overrides (the equivalence suite runs both on lavapipe).
   /// The bytes are the same either way.
   bool work_groups() const { return work_groups_; }

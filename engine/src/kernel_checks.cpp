@@ -184,4 +184,24 @@ int usable_capacity(const ConstDeviceList& list,
   return static_cast<int>(n);
 }
 
+LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout, int tile_w,
+                       int tile_h) {
+  LevelTiles t;
+  const auto levels = static_cast<std::size_t>(layout.num_levels());
+  t.first.assign(levels + 1, 0);
+  t.across.assign(levels, 0);
+  std::int64_t tiles = 0;
+  for (std::size_t n = 0; n < levels; ++n) {
+    const Plane& p = layout.levels[n];
+    t.first[n] = static_cast<std::int32_t>(tiles);
+    if (p.width <= 0 || p.height <= 0) continue;
+    t.across[n] = (p.width + tile_w - 1) / tile_w;
+    tiles += static_cast<std::int64_t>(t.across[n]) * ((p.height + tile_h - 1) / tile_h);
+    if (tiles > std::numeric_limits<std::int32_t>::max())
+      fail(backend, kernel, "the pyramid has too many pixels for one dispatch");
+  }
+  t.first[levels] = static_cast<std::int32_t>(tiles);
+  return t;
+}
+
 }  // namespace porta::checks

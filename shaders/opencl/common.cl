@@ -57,3 +57,26 @@ inline int porta_reflect101(int i, int n) {
   i %= period;
   return i < n ? i : period - i;
 }
+
+// Tiles of PORTA_TILE_W x PORTA_TILE_H pixels over every level of a pyramid, numbered level by
+// level (porta/kernel_checks.hpp LevelTiles), passed by value: level n owns work-groups
+// [first[n], first[n + 1]), across[n] of them per row of tiles.
+#define PORTA_TILE_W 32
+#define PORTA_TILE_H 8
+typedef struct {
+  int first[PORTA_MAX_LEVELS + 4];  // count + 1 entries used
+  int across[PORTA_MAX_LEVELS];
+} porta_tiles;
+
+// The level of work-group `tile` (-1 past the last level) and the tile's top-left pixel.
+inline int porta_tile_of(const porta_tiles* t, int count, int tile, int2* origin) {
+  *origin = (int2)(0, 0);
+  for (int n = 0; n < count; ++n) {
+    if (tile < t->first[n + 1]) {
+      const int k = tile - t->first[n];
+      *origin = (int2)((k % t->across[n]) * PORTA_TILE_W, (k / t->across[n]) * PORTA_TILE_H);
+      return n;
+    }
+  }
+  return -1;
+}

@@ -170,35 +170,44 @@ inline uint porta_pfa_location(const porta_keypoint kp, const porta_level_ints s
   return (uint)(y * (ulong)width0 + x);
 }
 
-// §3.5 PFA, step A (DESIGN.md §3.5): one work-item per cell; each keypoint (response > 0, level <
-// num_scales) adds its response to sum_map[L] and its level bit to level_map[L]. Both maps are
-// level-0 sized scratch planes that are all zero before the call (step C restores that). The
+// §3.5 PFA (DESIGN.md §3.5), per cell i: each keypoint (response > 0, level < num_scales) of
+// the cells projects to a level-0 location L. Both maps are level-0 sized scratch planes that are
+// all zero before the first step (the last step restores that). The parameters of every step.
+typedef struct {
+  porta_level_ints scales;
+  int total_cells;
+  int num_scales;
+  int width0;
+  int height0;
+  int reach;
+} porta_pfa;
+
+inline bool porta_pfa_keypoint(const porta_keypoint kp, const porta_pfa* p) {
+  return kp.response != 0 && kp.level < p->num_scales;
+}
+
+// Step A: the keypoint adds its response to sum_map[L] and its level bit to level_map[L]. The
 // atomics commute, so the result does not depend on their order.
-__kernel void pfa_accumulate(__global const porta_keypoint* cells, const int total_cells,
-                             const porta_level_ints scales, const int num_scales, const int width0,
-                             const int height0, __global uint* sum_map, __global uint* level_map) {
-  const int i = (int)get_global_id(0);
-  if (i >= total_cells) return;
+inline void porta_pfa_accumulate_cell(__global const porta_keypoint* cells, int i, const porta_pfa* p,
+                                      __global uint* sum_map, __global uint* level_map) {
   const porta_keypoint kp = cells[i];
-  if (kp.response == 0 || kp.level >= num_scales) return;
-  const uint l = porta_pfa_location(kp, scales, width0, height0);
+  if (!porta_pfa_keypoint(kp, p)) return;
+  const uint l = porta_pfa_location(kp, p->scales, p->width0, p->height0);
   atomic_add(&sum_map[l], (uint)kp.response);
   atomic_or(&level_map[l], 1u << kp.level);
 }
 
-// §3.5 PFA, step B: one work-item per cell; score(L) = sum_map[L] * popcount(level_map[L]) (uint32,
-// as the cpu backend). rejected[i] = 1 when a location within `reach` of the keypoint's L (clipped to
-// the level-0 image) scores strictly more, else 0. Cells and maps are only read.
-__kernel void pfa_decide(__global const porta_keypoint* cells, const int total_cells,
-                         const porta_level_ints scales, const int num_scales, const int width0,
-                         const int height0, const int reach, __global const uint* sum_map,
-                         __global const uint* level_map, __global uchar* rejected) {
-  const int i = (int)get_global_id(0);
-  if (i >= total_cells) return;
+// Step B: score(L) = sum_map[L] * popcount(level_map[L]) (uint32, as the cpu backend).
+// rejected[i] = 1 when a location within `reach` of the keypoint's L (clipped to the level-0 image)
+// scores strictly more, else 0. Cells and maps are only read.
+inline void porta_pfa_decide_cell(__global const porta_keypoint* cells, int i, const porta_pfa* p,
+                                  __global const uint* sum_map, __global const uint* level_map,
+                                  __global uchar* rejected) {
   const porta_keypoint kp = cells[i];
   uchar reject = 0;
-  if (kp.response != 0 && kp.level < num_scales) {
-    const uint l = porta_pfa_location(kp, scales, width0, height0);
+  if (porta_pfa_keypoint(kp, p)) {
+    const int width0 = p->width0, height0 = p->height0, reach = p->reach;
+    const uint l = porta_pfa_location(kp, p->scales, width0, height0);
     const uint own = sum_map[l] * popcount(level_map[l]);
     const int x = (int)(l % (uint)width0);
     const int y = (int)(l / (uint)width0);
@@ -218,27 +227,51 @@ __kernel void pfa_decide(__global const porta_keypoint* cells, const int total_c
   rejected[i] = reject;
 }
 
-// §3.5 PFA, step C: one work-item per cell; clears the cells step B rejected and resets the map
-// entries the keypoints touched to 0 (several work-items may write the same 0: benign).
-__kernel void pfa_apply(__global porta_keypoint* cells, const int total_cells, const porta_level_ints scales,
-                        const int num_scales, const int width0, const int height0, __global uint* sum_map,
-                        __global uint* level_map, __global const uchar* rejected) {
-  const int i = (int)get_global_id(0);
-  if (i >= total_cells) return;
+// Step C: clears the cell if step B rejected it and resets the map entries its keypoint touched to
+// 0 (several work-items may write the same 0: benign).
+inline void porta_pfa_apply_cell(__global porta_keypoint* cells, int i, const porta_pfa* p,
+                                 __global uint* sum_map, __global uint* level_map,
+                                 __global const uchar* rejected) {
   const porta_keypoint kp = cells[i];
-  if (kp.response == 0 || kp.level >= num_scales) return;
-  const uint l = porta_pfa_location(kp, scales, width0, height0);
+  if (!porta_pfa_keypoint(kp, p)) return;
+  const uint l = porta_pfa_location(kp, p->scales, p->width0, p->height0);
   sum_map[l] = 0;
   level_map[l] = 0;
-  if (rejected[i]) {
-    porta_keypoint zero;
-    zero.x = 0;
-    zero.y = 0;
-    zero.response = 0;
-    zero.level = 0;
-    zero.angle_bin = 0;
-    cells[i] = zero;
-  }
+  if (rejected[i]) cells[i] = porta_cell_keypoint(0, 0, 0, 0);
+}
+
+// The three steps, one work-item per cell each.
+__kernel void pfa_accumulate(__global const porta_keypoint* cells, const porta_pfa p, __global uint* sum_map,
+                             __global uint* level_map) {
+  const int i = (int)get_global_id(0);
+  if (i < p.total_cells) porta_pfa_accumulate_cell(cells, i, &p, sum_map, level_map);
+}
+
+__kernel void pfa_decide(__global const porta_keypoint* cells, const porta_pfa p, __global const uint* sum_map,
+                         __global const uint* level_map, __global uchar* rejected) {
+  const int i = (int)get_global_id(0);
+  if (i < p.total_cells) porta_pfa_decide_cell(cells, i, &p, sum_map, level_map, rejected);
+}
+
+__kernel void pfa_apply(__global porta_keypoint* cells, const porta_pfa p, __global uint* sum_map,
+                        __global uint* level_map, __global const uchar* rejected) {
+  const int i = (int)get_global_id(0);
+  if (i < p.total_cells) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
+}
+
+// The three steps in one 256-wide work-group (GPUs), a barrier between them instead of a launch.
+// Work-item t handles cells t, t + 256, ... in every step, so rejected[i] is written and read by
+// the same work-item; the maps the atomics of step A wrote are read by others after the barrier's
+// global fence. The same bytes as the three launches.
+__kernel __attribute__((reqd_work_group_size(256, 1, 1)))
+void pfa_group(__global porta_keypoint* cells, const porta_pfa p, __global uint* sum_map,
+               __global uint* level_map, __global uchar* rejected) {
+  const int t = (int)get_local_id(0);
+  for (int i = t; i < p.total_cells; i += 256) porta_pfa_accumulate_cell(cells, i, &p, sum_map, level_map);
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  for (int i = t; i < p.total_cells; i += 256) porta_pfa_decide_cell(cells, i, &p, sum_map, level_map, rejected);
+  barrier(CLK_GLOBAL_MEM_FENCE);  // every read of the maps is done before step C clears them
+  for (int i = t; i < p.total_cells; i += 256) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
 }
 
 // Canonical compaction, step 1 (ARCHITECTURE.md "Keypoint list"): one work-item per block of
@@ -287,4 +320,91 @@ __kernel void compact_scatter(__global const porta_keypoint* cells, const int to
     if (kp.response == 0) continue;
     items[at++] = kp;
   }
+}
+
+// Compaction in one 256-wide work-group (GPUs; compact_count/scan/scatter elsewhere): the same
+// output as the three steps. The cells go by in tiles of 4 * 256: each work-item counts its 4
+// cells, an inclusive prefix sum over the work-group in local memory gives where they go, then it
+// writes them (records at or past `capacity` not written); the tile's total moves the base on. The
+// count is written as compact_scan writes it.
+__kernel __attribute__((reqd_work_group_size(256, 1, 1)))
+void compact_group(__global const porta_keypoint* cells, const int total_cells, __global porta_keypoint* items,
+                   const uint capacity, __global uchar* count_bytes, const ulong count_offset) {
+  __local uint sums[256];
+  const int t = (int)get_local_id(0);
+  uint base = 0;
+  for (int tile = 0; tile < total_cells; tile += 256 * 4) {
+    const int first = tile + t * 4;
+    porta_keypoint kp[4];
+    uint count = 0;
+    for (int k = 0; k < 4; ++k) {
+      kp[k] = first + k < total_cells ? cells[first + k] : porta_cell_keypoint(0, 0, 0, 0);
+      count += kp[k].response != 0 ? 1u : 0u;
+    }
+    sums[t] = count;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int off = 1; off < 256; off <<= 1) {
+      const uint v = t >= off ? sums[t - off] : 0u;
+      barrier(CLK_LOCAL_MEM_FENCE);
+      sums[t] += v;
+      barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    uint at = base + sums[t] - count;
+    const uint tile_total = sums[255];
+    barrier(CLK_LOCAL_MEM_FENCE);  // every work-item has read sums before the next tile writes it
+    for (int k = 0; k < 4; ++k) {
+      if (kp[k].response == 0) continue;
+      if (at < capacity) items[at] = kp[k];
+      ++at;
+    }
+    base += tile_total;
+  }
+  if (t == 0) {
+    __global uchar* out = count_bytes + count_offset;
+    out[0] = (uchar)(base & 0xFF);
+    out[1] = (uchar)((base >> 8) & 0xFF);
+    out[2] = (uchar)((base >> 16) & 0xFF);
+    out[3] = (uchar)(base >> 24);
+  }
+}
+
+// §3.3 FAST CRF on GPUs (as fast_crf): one 32 x 8 work-group per tile of any level (`tiles`), one
+// launch. The tile and its 3-pixel halo are read into local memory once (clamped to the level: a
+// pixel whose circle leaves the level is within `edge` >= 3 of its border and gets 0 without
+// reading it), then each work-item tests its pixel's circle there. The same bytes as fast_crf.
+__kernel __attribute__((reqd_work_group_size(PORTA_TILE_W, PORTA_TILE_H, 1)))
+void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
+                __global ushort* responses, const porta_levels response_layout, const porta_tiles tiles,
+                const int eps, const int edge) {
+  __local int source[PORTA_TILE_H + 6][PORTA_TILE_W + 6];
+  int2 origin;
+  const int n = porta_tile_of(&tiles, layout.count, (int)get_group_id(0), &origin);
+  if (n < 0) return;  // the whole work-group
+  const porta_plane src = layout.level[n];
+  const int tx = (int)get_local_id(0), ty = (int)get_local_id(1);
+  for (int k = ty * PORTA_TILE_W + tx; k < (PORTA_TILE_H + 6) * (PORTA_TILE_W + 6); k += PORTA_TILE_W * PORTA_TILE_H) {
+    const int r = k / (PORTA_TILE_W + 6), c = k - r * (PORTA_TILE_W + 6);
+    const int sy = clamp(origin.y - 3 + r, 0, src.height - 1);
+    const int sx = clamp(origin.x - 3 + c, 0, src.width - 1);
+    source[r][c] = pyramid[src.offset_bytes + (long)sy * src.pitch + sx];
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  const int x = origin.x + tx, y = origin.y + ty;
+  if (x >= src.width || y >= src.height) return;
+  ushort response = 0;
+  if (y >= edge && y < src.height - edge && x >= edge && x < src.width - edge) {
+    const int c = source[ty + 3][tx + 3];
+    uint bright = 0, dark = 0;
+    int sum = 0;
+    for (int i = 0; i < 16; ++i) {
+      const int p = source[ty + 3 + porta_fast_dy[i]][tx + 3 + porta_fast_dx[i]];
+      if (p > c + eps) bright |= 1u << i;
+      if (p < c - eps) dark |= 1u << i;
+      sum += abs(p - c);
+    }
+    if (lut[bright] | lut[dark]) response = (ushort)sum;
+  }
+  const porta_plane dst = response_layout.level[n];
+  __global ushort* out = (__global ushort*)((__global uchar*)responses + dst.offset_bytes);
+  out[(long)y * dst.pitch + x] = response;
 }

@@ -110,3 +110,40 @@ __kernel void blur_vertical(__global const ushort* scratch, const porta_levels l
   for (int k = 0; k < 7; ++k) sum += (uint)taps.v[k] * h[(long)porta_reflect101(y + k - 3, p.height) * p.width];
   blurred[p.offset_bytes + (long)y * p.pitch + x] = (uchar)((sum + (1u << 15)) >> 16);
 }
+
+// §3.7 blur on GPUs (as blur_horizontal + blur_vertical): one 32 x 8 work-group per tile of any
+// level (`tiles`), both passes through local memory. Row r of the tile's source holds source row
+// reflect101(y0 - 3 + r), column c source column reflect101(x0 - 3 + c); the horizontal sums h =
+// sum t_k p stay unrounded (the cpu's uint16) for the 14 rows the tile needs, then out = (sum t_k h
+// + 2^15) >> 16. Source and destination must differ (the host launches the two passes otherwise).
+__kernel __attribute__((reqd_work_group_size(PORTA_TILE_W, PORTA_TILE_H, 1)))
+void blur_tiled(__global const uchar* pyramid, const porta_levels layout, __global uchar* blurred,
+                const porta_tiles tiles, const porta_level_ints taps) {
+  __local uint source[PORTA_TILE_H + 6][PORTA_TILE_W + 6];
+  __local uint horizontal[PORTA_TILE_H + 6][PORTA_TILE_W];
+  int2 origin;
+  const int n = porta_tile_of(&tiles, layout.count, (int)get_group_id(0), &origin);
+  if (n < 0) return;  // the whole work-group
+  const porta_plane p = layout.level[n];
+  const int tx = (int)get_local_id(0), ty = (int)get_local_id(1);
+  const int tid = ty * PORTA_TILE_W + tx;
+  for (int k = tid; k < (PORTA_TILE_H + 6) * (PORTA_TILE_W + 6); k += PORTA_TILE_W * PORTA_TILE_H) {
+    const int r = k / (PORTA_TILE_W + 6), c = k - r * (PORTA_TILE_W + 6);
+    const int sy = porta_reflect101(origin.y - 3 + r, p.height);
+    const int sx = porta_reflect101(origin.x - 3 + c, p.width);
+    source[r][c] = pyramid[p.offset_bytes + (long)sy * p.pitch + sx];
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int k = tid; k < (PORTA_TILE_H + 6) * PORTA_TILE_W; k += PORTA_TILE_W * PORTA_TILE_H) {
+    const int r = k / PORTA_TILE_W, c = k - r * PORTA_TILE_W;
+    uint sum = 0;
+    for (int t = 0; t < 7; ++t) sum += (uint)taps.v[t] * source[r][c + t];
+    horizontal[r][c] = sum;
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  const int x = origin.x + tx, y = origin.y + ty;
+  if (x >= p.width || y >= p.height) return;
+  uint sum = 0;  // at most 256 * 65280 + 2^15 < 2^24
+  for (int t = 0; t < 7; ++t) sum += (uint)taps.v[t] * horizontal[ty + t][tx];
+  blurred[p.offset_bytes + (long)y * p.pitch + x] = (uchar)((sum + (1u << 15)) >> 16);
+}

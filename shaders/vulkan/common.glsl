@@ -74,3 +74,27 @@ int porta_reflect101(int i, int n) {
   i %= period;  // both non-negative: % is defined
   return i < n ? i : period - i;
 }
+
+// Tiles of PORTA_TILE_W x PORTA_TILE_H pixels over every level of a pyramid, numbered level by
+// level (porta/kernel_checks.hpp LevelTiles): level n owns workgroups [first[n], first[n + 1]),
+// across[n] of them per row of tiles. Kernels that run all levels in one dispatch, one workgroup
+// per tile, find their level and tile origin with porta_tile_of().
+#define PORTA_TILE_W 32
+#define PORTA_TILE_H 8
+struct Tiles {
+  int first[PORTA_MAX_LEVELS + 4];  // count + 1 entries used
+  int across[PORTA_MAX_LEVELS];
+};
+
+// The level of workgroup `tile` (-1 past the last level) and the tile's top-left pixel.
+int porta_tile_of(Tiles t, int count, int tile, out ivec2 origin) {
+  origin = ivec2(0);
+  for (int n = 0; n < count; ++n) {
+    if (tile < t.first[n + 1]) {
+      const int k = tile - t.first[n];
+      origin = ivec2((k % t.across[n]) * PORTA_TILE_W, (k / t.across[n]) * PORTA_TILE_H);
+      return n;
+    }
+  }
+  return -1;
+}

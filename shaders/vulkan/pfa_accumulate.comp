@@ -4,14 +4,10 @@
 #include "common.glsl"
 #include "pfa_common.glsl"
 
-// §3.5 PFA, step A: each keypoint adds its response to sum_map[L] and its level bit to
-// level_map[L]. The atomics commute, so the maps do not depend on their order.
+// §3.5 PFA, step A (pfa_accumulate_cell), one invocation per cell.
+layout(local_size_x = 64) in;
+
 void main() {
   const uint i = porta_linear_index();
-  if (i >= uint(p.total_cells)) return;
-  uvec2 kp;
-  if (!pfa_keypoint(i, kp)) return;
-  const uint l = pfa_location(kp);
-  atomicAdd(sum_map[l], kp_response(kp));
-  atomicOr(level_map[l], 1u << kp_level(kp));
+  if (i < uint(p.total_cells)) pfa_accumulate_cell(i);
 }

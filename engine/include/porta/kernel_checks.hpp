@@ -105,4 +105,17 @@ void check_count_offset(std::string_view backend, std::string_view kernel, const
 int usable_capacity(const ConstDeviceList& list,
                     std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers);
 
+/// Tiles of tile_w x tile_h pixels over every level of a pyramid, numbered level by level: the
+/// launch geometry of GPU kernels that run all levels in one dispatch, one workgroup per tile.
+/// Level n owns tiles [first[n], first[n + 1]); `across[n]` tiles make one of its rows. Empty
+/// levels own none.
+struct LevelTiles {
+  std::vector<std::int32_t> first;   ///< num_levels + 1 entries; first.back() is the total
+  std::vector<std::int32_t> across;  ///< num_levels entries
+};
+
+/// The tiles of `layout`; fails ("<backend>: <kernel>: ...") when they number more than 2^31 - 1.
+LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout, int tile_w,
+                       int tile_h);
+
 }  // namespace porta::checks
