@@ -157,8 +157,8 @@ void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
-  if (work_groups()) {
-    launch("detect", "pfa_group", Range::linear(256, 256), cells, p, sum_map, level_map, rejected);
+  if (work_groups() && max_work_group() >= 1024) {
+    launch("detect", "pfa_group", Range::linear(1024, 1024), cells, p, sum_map, level_map, rejected);
     return;
   }
   const Range range = Range::linear(static_cast<std::size_t>(total));

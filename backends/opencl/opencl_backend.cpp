@@ -138,10 +138,10 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
   }
   profile_kernels_ = options.profile_kernels;
   // The work-group kernels run up to 256 work-items per group (32 x 8 in the tiled ones).
-  std::size_t max_group = 0;
-  check(clGetDeviceInfo(device_.device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof(max_group), &max_group, nullptr),
+  check(clGetDeviceInfo(device_.device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof(max_work_group_), &max_work_group_,
+                        nullptr),
         "clGetDeviceInfo(CL_DEVICE_MAX_WORK_GROUP_SIZE)", device_.label());
-  work_groups_ = device_.is_gpu && max_group >= 256;
+  work_groups_ = device_.is_gpu && max_work_group_ >= 256;
   if (const char* env = std::getenv("PORTA_OPENCL_WORK_GROUPS"); env != nullptr && *env != '\0') {
     const std::string value = env;
     if (value != "on" && value != "off")

@@ -109,6 +109,8 @@ class OpenClBackend final : public Backend {
   /// there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
   /// runs both kinds on PoCL). The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
+  /// CL_DEVICE_MAX_WORK_GROUP_SIZE.
+  std::size_t max_work_group() const { return max_work_group_; }
 
  private:
   template <typename T>
@@ -140,6 +142,7 @@ class OpenClBackend final : public Backend {
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
   bool profile_kernels_ = false;
   bool work_groups_ = false;
+  std::size_t max_work_group_ = 0;
   struct TimedDispatch {
     int queue;
     std::string kernel;

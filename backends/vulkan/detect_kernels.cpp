@@ -146,7 +146,8 @@ void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
-  if (work_groups()) {
+  const VkPhysicalDeviceLimits& limits = rt().context().limits();
+  if (work_groups() && limits.maxComputeWorkGroupInvocations >= 1024 && limits.maxComputeWorkGroupSize[0] >= 1024) {
     rt().dispatch("pfa_group", {&cells, &sum_map, &level_map, &rejected}, p, Work::groups(1));
     return;
   }

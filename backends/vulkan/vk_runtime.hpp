@@ -152,6 +152,11 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   struct Command {
     enum class Kind : std::uint8_t { kDispatch, kCopy, kFill };
     Kind kind = Kind::kDispatch;
+    /// A barrier before it: it may read what any earlier command wrote. False only for a command
+    /// merged beside another stream's (stream_wait): the first command of its group has it.
+    bool barrier_before = true;
+    /// The stream whose parameter buffer holds its parameters (kDispatch).
+    std::uint8_t params_stream = 0;
     std::vector<std::uint64_t> ids;  ///< buffers used: bindings in order; copy: src, dst; fill: dst
     // kDispatch
     const Kernel* kernel = nullptr;
@@ -178,8 +183,11 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   /// One HAL queue. Commands are recorded into `pending`; a submit moves them to the device as one
   /// batch, of which a stream has at most one running: recording into a stream whose batch runs
   /// waits for it first, so the batch's staging, parameters and command buffer are free again.
+  /// stream_wait() may instead merge another stream's pending commands into this batch, beside
+  /// its own (merge_pending): that stream's `carrier` then names this one until the batch has run.
   struct Stream {
     VkQueue queue = VK_NULL_HANDLE;
+    int carrier = -1;  ///< the stream whose pending or running batch holds this one's last work
     std::vector<Command> pending;
     std::vector<std::uint64_t> pending_ids;
     bool pending_dispatch = false;
@@ -226,6 +234,13 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void complete(Stream& s);
   /// Drops the pending batch (after a failed submit; its commands never ran).
   void drop_pending(Stream& s);
+  /// Moves the pending commands of `from` into the pending batch of `into` beside its own: group k
+  /// of one (the commands between two barriers) with group k of the other, so that their k-th
+  /// steps run at the same time and each stream's order is kept. Both must be on one device queue.
+  void merge_pending(int into, int from);
+  /// The streams whose work `carrier`'s batch held are free to record again (it has run or was
+  /// dropped).
+  void release_carried(int carrier);
   VkSemaphore take_semaphore();
   VkCommandBuffer command_buffer_for(Stream& s);
   void record(const Stream& s, VkCommandBuffer cmd, bool one_time);

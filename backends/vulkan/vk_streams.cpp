@@ -115,6 +115,9 @@ Unique<VkQueryPool> Runtime::create_timestamp_pool() {
 // ---- Recording -----------------------------------------------------------------------------------
 
 void Runtime::begin_record(Stream& s) {
+  // Work merged into another stream's batch runs before anything recorded now, and the staging
+  // and parameter memory it reads are free only once it has run.
+  if (s.carrier >= 0) finish_stream(s.carrier);
   if (s.pending.empty() && s.running) complete(s);
 }
 
@@ -143,6 +146,7 @@ void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*
     }
     std::memcpy(static_cast<std::uint8_t*>(s.params.mapped) + at, params, params_bytes);
     c.params_offset = static_cast<std::uint32_t>(at);
+    c.params_stream = static_cast<std::uint8_t>(current_);
     s.params_used = at + params_bytes;
   } else if (c.kernel->push) {
     std::memcpy(c.push.data(), params, params_bytes);
@@ -169,6 +173,17 @@ VkSemaphore Runtime::take_semaphore() {
 void Runtime::stream_wait(int other) {
   if (other == current_) return;  // a stream runs in order
   Stream& o = streams_[static_cast<std::size_t>(other)];
+  if (o.carrier >= 0) {  // its work is in another stream's batch: wait for that one
+    stream_wait(o.carrier);
+    return;
+  }
+  if (!o.pending.empty() && o.queue == current().queue) {
+    // On one device queue the two batches would run one after the other anyway (a barrier waits
+    // for every earlier command of the queue); merged, their steps run side by side, and the
+    // commands recorded from now on come after both.
+    merge_pending(current_, other);
+    return;
+  }
   if (!o.pending.empty() || !o.waits.empty()) {
     const VkSemaphore sem = take_semaphore();
     submit(o, sem);
@@ -202,7 +217,58 @@ std::vector<KernelTime> Runtime::kernel_times(bool reset) {
   return profile_.take(reset);
 }
 
+void Runtime::merge_pending(int into, int from) {
+  Stream& a = streams_[static_cast<std::size_t>(into)];
+  Stream& b = streams_[static_cast<std::size_t>(from)];
+  begin_record(a);  // its earlier batch has run: the merged one is recorded fresh
+  // The groups of a command list: [start, end) ranges, a new one at each command with a barrier.
+  const auto groups = [](const std::vector<Command>& v) {
+    std::vector<std::pair<std::size_t, std::size_t>> g;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      if (i == 0 || v[i].barrier_before) g.emplace_back(i, i);
+      g.back().second = i + 1;
+    }
+    return g;
+  };
+  const auto ga = groups(a.pending), gb = groups(b.pending);
+  std::vector<Command> merged;
+  merged.reserve(a.pending.size() + b.pending.size());
+  for (std::size_t k = 0; k < std::max(ga.size(), gb.size()); ++k) {
+    const std::size_t first = merged.size();
+    if (k < ga.size())
+      for (std::size_t i = ga[k].first; i < ga[k].second; ++i) merged.push_back(std::move(a.pending[i]));
+    if (k < gb.size())
+      for (std::size_t i = gb[k].first; i < gb[k].second; ++i) merged.push_back(std::move(b.pending[i]));
+    for (std::size_t i = first; i < merged.size(); ++i) merged[i].barrier_before = i == first && k > 0;
+  }
+  // Everything recorded later waits for both.
+  a.pending = std::move(merged);
+  for (const std::uint64_t id : b.pending_ids) note_use(a, id);
+  a.pending_dispatch = a.pending_dispatch || b.pending_dispatch;
+  a.waits.insert(a.waits.end(), b.waits.begin(), b.waits.end());
+  b.pending.clear();
+  b.pending_ids.clear();
+  b.pending_dispatch = false;
+  b.waits.clear();
+  // b's staging and parameters stay reserved (b.params_used, b.staging_used) until a's batch has
+  // run; so do those of streams b carried.
+  b.carrier = into;
+  for (Stream& t : streams_)
+    if (t.carrier == from) t.carrier = into;
+  ++stats_.merged_batches;
+}
+
+void Runtime::release_carried(int carrier) {
+  for (Stream& t : streams_) {
+    if (t.carrier != carrier) continue;
+    t.carrier = -1;
+    t.params_used = 0;
+    t.staging_used = 0;
+  }
+}
+
 void Runtime::drop_pending(Stream& s) {
+  release_carried(static_cast<int>(&s - streams_.data()));
   s.pending.clear();
   s.pending_ids.clear();
   s.pending_dispatch = false;
@@ -257,6 +323,7 @@ void Runtime::complete(Stream& s) {
   free_semaphores_.insert(free_semaphores_.end(), s.running_waits.begin(), s.running_waits.end());
   s.running_waits.clear();
   s.running_ids.clear();
+  release_carried(static_cast<int>(&s - streams_.data()));
   if (s.timestamps) read_timestamps(s);
   collect_garbage();
 }
@@ -267,7 +334,8 @@ std::vector<std::uint64_t> Runtime::signature(const Stream& s) const {
   std::vector<std::uint64_t> sig;
   sig.reserve(s.pending.size() * 16);
   for (const Command& c : s.pending) {
-    sig.push_back(static_cast<std::uint64_t>(c.kind));
+    sig.push_back(static_cast<std::uint64_t>(c.kind) | (c.barrier_before ? 0x100u : 0u) |
+                  (static_cast<std::uint64_t>(c.params_stream) << 16));
     sig.push_back(c.ids.size());
     sig.insert(sig.end(), c.ids.begin(), c.ids.end());
     switch (c.kind) {
@@ -357,14 +425,14 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
   }
   for (std::size_t i = 0; i < s.pending.size(); ++i) {
     const Command& c = s.pending[i];
-    if (i > 0) vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
+    if (i > 0 && c.barrier_before) vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
     switch (c.kind) {
       case Command::Kind::kDispatch: {
         const Kernel& k = *c.kernel;
         if (bound != &k) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipeline.get());
         bound = &k;
         if (k.params_buffer) {
-          const VkDescriptorSet sets[2] = {c.set, s.params_set};
+          const VkDescriptorSet sets[2] = {c.set, streams_[c.params_stream].params_set};
           vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, k.layout.get(), 0, 2, sets, 1,
                                   &c.params_offset);
         } else {

@@ -71,6 +71,7 @@ struct VulkanStats {
   std::uint64_t command_buffers_recorded = 0;  ///< batches recorded (cache misses)
   std::uint64_t command_buffers_replayed = 0;  ///< batches that reused a recorded command buffer
   std::uint64_t submits = 0;
+  std::uint64_t merged_batches = 0;  ///< stream_wait()s that merged a stream's batch into another's
 };
 
 class VulkanBackend final : public Backend {

@@ -213,14 +213,12 @@ inline void porta_pfa_decide_cell(__global const porta_keypoint* cells, int i, c
     const int y = (int)(l / (uint)width0);
     const int xa = max(0, x - reach), xb = min(width0 - 1, x + reach);
     const int ya = max(0, y - reach), yb = min(height0 - 1, y + reach);
-    for (int wy = ya; wy <= yb && !reject; ++wy) {
+    // Every location of the window is read, with no early exit: the loads go out together.
+    for (int wy = ya; wy <= yb; ++wy) {
       const uint row = (uint)wy * (uint)width0;
       for (int wx = xa; wx <= xb; ++wx) {
         const uint k = row + (uint)wx;
-        if (sum_map[k] * popcount(level_map[k]) > own) {
-          reject = 1;
-          break;
-        }
+        reject |= sum_map[k] * popcount(level_map[k]) > own ? 1 : 0;
       }
     }
   }
@@ -259,19 +257,19 @@ __kernel void pfa_apply(__global porta_keypoint* cells, const porta_pfa p, __glo
   if (i < p.total_cells) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
 }
 
-// The three steps in one 256-wide work-group (GPUs), a barrier between them instead of a launch.
-// Work-item t handles cells t, t + 256, ... in every step, so rejected[i] is written and read by
+// The three steps in one 1024-wide work-group (GPUs), a barrier between them instead of a launch.
+// Work-item t handles cells t, t + 1024, ... in every step, so rejected[i] is written and read by
 // the same work-item; the maps the atomics of step A wrote are read by others after the barrier's
 // global fence. The same bytes as the three launches.
-__kernel __attribute__((reqd_work_group_size(256, 1, 1)))
+__kernel __attribute__((reqd_work_group_size(1024, 1, 1)))
 void pfa_group(__global porta_keypoint* cells, const porta_pfa p, __global uint* sum_map,
                __global uint* level_map, __global uchar* rejected) {
   const int t = (int)get_local_id(0);
-  for (int i = t; i < p.total_cells; i += 256) porta_pfa_accumulate_cell(cells, i, &p, sum_map, level_map);
+  for (int i = t; i < p.total_cells; i += 1024) porta_pfa_accumulate_cell(cells, i, &p, sum_map, level_map);
   barrier(CLK_GLOBAL_MEM_FENCE);
-  for (int i = t; i < p.total_cells; i += 256) porta_pfa_decide_cell(cells, i, &p, sum_map, level_map, rejected);
+  for (int i = t; i < p.total_cells; i += 1024) porta_pfa_decide_cell(cells, i, &p, sum_map, level_map, rejected);
   barrier(CLK_GLOBAL_MEM_FENCE);  // every read of the maps is done before step C clears them
-  for (int i = t; i < p.total_cells; i += 256) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
+  for (int i = t; i < p.total_cells; i += 1024) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
 }
 
 // Canonical compaction, step 1 (ARCHITECTURE.md "Keypoint list"): one work-item per block of

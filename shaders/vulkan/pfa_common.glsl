@@ -62,14 +62,10 @@ void pfa_decide_cell(uint i) {
     const int y = int(l / uint(p.width0));
     const int xa = max(0, x - p.reach), xb = min(p.width0 - 1, x + p.reach);
     const int ya = max(0, y - p.reach), yb = min(p.height0 - 1, y + p.reach);
-    for (int wy = ya; wy <= yb && reject == 0u; ++wy) {
+    // Every location of the window is read, with no early exit: the loads go out together.
+    for (int wy = ya; wy <= yb; ++wy) {
       const uint row = uint(wy) * uint(p.width0);
-      for (int wx = xa; wx <= xb; ++wx) {
-        if (pfa_score(row + uint(wx)) > own) {
-          reject = 1u;
-          break;
-        }
-      }
+      for (int wx = xa; wx <= xb; ++wx) reject |= pfa_score(row + uint(wx)) > own ? 1u : 0u;
     }
   }
   rejected[i] = uint8_t(reject);

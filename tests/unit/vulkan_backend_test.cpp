@@ -148,6 +148,44 @@ TEST_F(VulkanBackendTest, Batches_ReplayedBatchesUseEachCallsParameters) {
   }
 }
 
+// A stereo frame's two images run as one batch: the left image's stream_wait for the right one
+// merges the right image's pending commands into the left's batch, step beside step. The merge
+// happens every frame, later frames replay the merged command buffer, and the features and matches
+// are the cpu backend's, one frame at a time and with frames in flight.
+TEST_F(VulkanBackendTest, Streams_StereoImagesRunAsOneMergedBatch) {
+  const FrontendSettings settings = small_settings();
+  const Image left = test::textured_image(320, 240, 3);
+  const Image right = test::textured_image(320, 240, 4);
+  auto cpu = BackendRegistry::instance().create("cpu");
+  Frontend reference(*cpu, settings, 320, 240);
+  const StereoFeatures expected = reference.detect_stereo(left.view(), right.view());
+  ASSERT_GT(expected.matches.size(), 0u);
+  const auto same = [](const StereoFeatures& a, const StereoFeatures& b) {
+    const auto bytes_equal = [](const auto& x, const auto& y) {
+      return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+    };
+    return bytes_equal(a.left.keypoints, b.left.keypoints) && bytes_equal(a.right.keypoints, b.right.keypoints) &&
+           bytes_equal(a.left.descriptors, b.left.descriptors) &&
+           bytes_equal(a.right.descriptors, b.right.descriptors) && bytes_equal(a.matches, b.matches);
+  };
+  for (const int in_flight : {1, 3}) {
+    FrontendOptions options;
+    options.in_flight = in_flight;
+    Frontend frontend(*backend_, settings, 320, 240, options);
+    const vulkan::VulkanStats before = backend_->stats();
+    for (int frame = 0; frame < 6; ++frame) {
+      frontend.submit_stereo(left.view(), right.view());
+      if (frame + 1 >= in_flight) {
+        EXPECT_TRUE(same(frontend.collect_stereo(), expected)) << "frame " << frame;
+      }
+    }
+    for (int left_over = 1; left_over < in_flight; ++left_over) EXPECT_TRUE(same(frontend.collect_stereo(), expected));
+    const vulkan::VulkanStats after = backend_->stats();
+    EXPECT_GE(after.merged_batches - before.merged_batches, 6u) << in_flight << " in flight";
+    EXPECT_GT(after.command_buffers_replayed, before.command_buffers_replayed) << in_flight << " in flight";
+  }
+}
+
 TEST_F(VulkanBackendTest, Memory_FillUploadDownloadAtAnyAlignment) {
   auto buffer = backend_->allocate(37);
   std::vector<std::uint8_t> expected(37, 0), got(37, 0xEE);
