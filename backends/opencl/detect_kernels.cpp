@@ -51,6 +51,9 @@ ClLevels rows_of_levels(const PyramidLayout& layout, std::size_t& max_width, std
 }
 
 constexpr int kCompactBlock = 128;  // cells per work-item of the compaction
+/// PFA runs in one work-group (pfa_group) up to this many cells, in three launches above (as on
+/// vulkan: one group is faster for a few hundred cells, slower for ~1 500).
+constexpr int kPfaGroupCells = 512;
 
 struct ClPfa {  // detect.cl porta_pfa
   ClLevelInts scales;
@@ -125,8 +128,8 @@ void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
 }
 
 // §3.5: three steps over the cells (accumulate, decide, apply) with two level-0 sized scratch maps
-// that are zero between calls (zero when allocated, restored by the last step). GPUs: the three
-// in one work-group (pfa_group); elsewhere three launches.
+// that are zero between calls (zero when allocated, restored by the last step). GPUs, a few
+// hundred cells: the three in one work-group (pfa_group); otherwise three launches.
 void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
   const int width0 = params.level0_width, height0 = params.level0_height;
   if (width0 <= 0 || height0 <= 0)
@@ -157,7 +160,7 @@ void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
-  if (work_groups() && max_work_group() >= 1024) {
+  if (work_groups() && total <= kPfaGroupCells && max_work_group() >= 1024) {
     launch("detect", "pfa_group", Range::linear(1024, 1024), cells, p, sum_map, level_map, rejected);
     return;
   }

@@ -45,6 +45,10 @@ struct CompactGroupParams {  // compact_group.comp (push constants)
 static_assert(sizeof(PfaStepParams) <= kMaxPushBytes && sizeof(CompactParams) <= kMaxPushBytes);
 
 constexpr std::uint32_t kCompactBlock = 128;  // cells per invocation of the compaction
+/// PFA runs in one workgroup (pfa_group) up to this many cells, in three dispatches above: on the
+/// H200 one workgroup took 6 µs for 70 cells against 13 for the three dispatches, but 28 against
+/// 15 for ~1 500 (its steps then loop, each a chain of dependent loads on one multiprocessor).
+constexpr int kPfaGroupCells = 512;
 
 }  // namespace
 
@@ -116,7 +120,7 @@ void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
 
 // §3.5: three steps over the cells (accumulate with order-independent atomics, decide, apply) with
 // two level-0 sized scratch maps that are zero between calls (zero when allocated, restored by the
-// last step). GPUs: all three in one workgroup (pfa_group.comp); elsewhere three dispatches.
+// last step). GPUs, a few hundred cells: all three in one workgroup (pfa_group.comp); otherwise three dispatches.
 void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const porta::PfaParams& params) {
   const int width0 = params.level0_width, height0 = params.level0_height;
   if (width0 <= 0 || height0 <= 0)
@@ -147,7 +151,8 @@ void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
   const VkPhysicalDeviceLimits& limits = rt().context().limits();
-  if (work_groups() && limits.maxComputeWorkGroupInvocations >= 1024 && limits.maxComputeWorkGroupSize[0] >= 1024) {
+  if (work_groups() && total <= kPfaGroupCells && limits.maxComputeWorkGroupInvocations >= 1024 &&
+      limits.maxComputeWorkGroupSize[0] >= 1024) {
     rt().dispatch("pfa_group", {&cells, &sum_map, &level_map, &rejected}, p, Work::groups(1));
     return;
   }

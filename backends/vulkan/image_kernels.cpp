@@ -53,7 +53,8 @@ void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
       Work::grid(static_cast<std::uint64_t>(dst_plane.width), static_cast<std::uint64_t>(dst_plane.height)));
 }
 
-// §3.2: one dispatch per level, in order (each reads the level above; barriers between them).
+// §3.2: one dispatch per level, in order (each reads the level above; barriers between them);
+// 32 x 8 workgroups on GPUs, 8 x 8 elsewhere.
 void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                   const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();
@@ -66,7 +67,7 @@ void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, 
     const PyramidParams params{
         to_glsl(above), to_glsl(level), level_offset[static_cast<std::size_t>(n - 1)], {0, 0, 0}};
     rt().dispatch(
-        "build_pyramid", {&pyramid, &resize_table}, params,
+        work_groups() ? "build_pyramid_wide" : "build_pyramid", {&pyramid, &resize_table}, params,
         Work::grid(static_cast<std::uint64_t>(level.width), static_cast<std::uint64_t>(level.height)));
   }
 }

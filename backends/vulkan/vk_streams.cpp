@@ -402,8 +402,9 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
   auto begin = make_info<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   begin.flags = one_time ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
   check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
-  // Each command may read what the one before wrote: a full compute/transfer barrier between
-  // every two (DESIGN.md allows it; the frontend's kernels depend on each other in a chain).
+  // Each command may read what the one before wrote: a barrier between every two (DESIGN.md allows
+  // it; the frontend's kernels depend on each other in a chain), but not between commands merged
+  // side by side (merge_pending). Its stages and accesses are set per barrier below.
   auto between = make_info<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
   between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
   between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
@@ -423,9 +424,39 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
         })));
     if (timed > 0) vkCmdResetQueryPool(cmd, s.timestamps.get(), 0, 2 * timed);
   }
+  // The stages and accesses of a command, for the barriers around it: each barrier waits for the
+  // stages of the group before it (the commands since the barrier before) and blocks those of the
+  // group after it, so that consecutive barriers chain; a write made available by one is made
+  // visible by any later one.
+  const auto stage_of = [](const Command& c) {
+    return c.kind == Command::Kind::kDispatch ? VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_TRANSFER_BIT;
+  };
+  const auto writes_of = [](const Command& c) {
+    return c.kind == Command::Kind::kDispatch ? VK_ACCESS_SHADER_WRITE_BIT : VK_ACCESS_TRANSFER_WRITE_BIT;
+  };
+  const auto accesses_of = [](const Command& c) -> VkAccessFlags {
+    return c.kind == Command::Kind::kDispatch ? VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT
+                                              : VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+  };
+  VkPipelineStageFlags group_stages = 0;  // of the commands since the last barrier
+  VkAccessFlags group_writes = 0;
   for (std::size_t i = 0; i < s.pending.size(); ++i) {
     const Command& c = s.pending[i];
-    if (i > 0 && c.barrier_before) vkCmdPipelineBarrier(cmd, kStages, kStages, 0, 1, &between, 0, nullptr, 0, nullptr);
+    if (i > 0 && c.barrier_before) {
+      VkPipelineStageFlags next_stages = 0;
+      VkAccessFlags next_accesses = 0;
+      for (std::size_t j = i; j < s.pending.size() && (j == i || !s.pending[j].barrier_before); ++j) {
+        next_stages |= stage_of(s.pending[j]);
+        next_accesses |= accesses_of(s.pending[j]);
+      }
+      between.srcAccessMask = group_writes;
+      between.dstAccessMask = next_accesses;
+      vkCmdPipelineBarrier(cmd, group_stages, next_stages, 0, 1, &between, 0, nullptr, 0, nullptr);
+      group_stages = 0;
+      group_writes = 0;
+    }
+    group_stages |= stage_of(c);
+    group_writes |= writes_of(c);
     switch (c.kind) {
       case Command::Kind::kDispatch: {
         const Kernel& k = *c.kernel;
