@@ -7,6 +7,7 @@
 #include <vulkan/vulkan.h>
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <initializer_list>
 #include <map>
@@ -90,6 +91,8 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   Runtime& operator=(const Runtime&) = delete;
 
   Context& context() { return *ctx_; }
+  /// How long wait_for() polls a fence before it blocks (0: blocks at once).
+  void set_fence_poll(std::chrono::microseconds poll) { fence_poll_ = poll; }
   const VulkanStats& stats() const { return stats_; }
 
   // ---- memory (Backend semantics: asynchronous until a wait) ----
@@ -232,6 +235,8 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void submit(Stream& s, VkSemaphore signal);
   /// Waits for the running batch, reads its timestamps and frees what it held.
   void complete(Stream& s);
+  /// Waits on the host until `fence` has signalled, polling it for fence_poll_ first.
+  void wait_for(VkFence fence);
   /// Drops the pending batch (after a failed submit; its commands never ran).
   void drop_pending(Stream& s);
   /// Moves the pending commands of `from` into the pending batch of `into` beside its own: group k
@@ -296,6 +301,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   std::uint64_t timestamp_mask_ = ~0ull;
   double timestamp_ns_ = 1.0;  ///< ns per timestamp tick
   KernelProfile profile_;
+  std::chrono::microseconds fence_poll_{0};
 };
 
 }  // namespace porta::vulkan

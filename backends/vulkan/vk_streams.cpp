@@ -3,6 +3,7 @@
 // fences a stream's running batch is waited for with, and per-kernel timestamps.
 // vulkan_backend.hpp has the design; memory and transfers are in vk_runtime.cpp.
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <string>
 
@@ -318,7 +319,7 @@ void Runtime::complete(Stream& s) {
   s.running = false;  // also when the wait fails: the error is reported once
   const VkFence fence = s.fence.get();
   const VkDevice dev = ctx_->device();
-  check(vkWaitForFences(dev, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  wait_for(fence);
   check(vkResetFences(dev, 1, &fence), "vkResetFences");
   free_semaphores_.insert(free_semaphores_.end(), s.running_waits.begin(), s.running_waits.end());
   s.running_waits.clear();
@@ -326,6 +327,21 @@ void Runtime::complete(Stream& s) {
   release_carried(static_cast<int>(&s - streams_.data()));
   if (s.timestamps) read_timestamps(s);
   collect_garbage();
+}
+
+void Runtime::wait_for(VkFence fence) {
+  const VkDevice dev = ctx_->device();
+  // The host polls the fence for a while first (on GPUs, by default): a blocking wait sleeps, and
+  // waking up costs tens of microseconds, about as much as a whole small frame.
+  if (fence_poll_.count() > 0) {
+    const auto until = std::chrono::steady_clock::now() + fence_poll_;
+    VkResult r = VK_NOT_READY;
+    while ((r = vkGetFenceStatus(dev, fence)) == VK_NOT_READY && std::chrono::steady_clock::now() < until) {
+    }
+    if (r == VK_SUCCESS) return;
+    if (r != VK_NOT_READY) check(r, "vkGetFenceStatus");
+  }
+  check(vkWaitForFences(dev, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 }
 
 // ---- Batches -------------------------------------------------------------------------------------

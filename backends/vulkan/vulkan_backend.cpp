@@ -1,8 +1,10 @@
 #include "vulkan/vulkan_backend.hpp"
 
+#include <chrono>
 #include <cstdlib>
 #include <string>
 
+#include "porta/kernel_checks.hpp"
 #include "vulkan/vk_context.hpp"
 #include "vulkan/vk_runtime.hpp"
 
@@ -19,6 +21,11 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
       throw BackendError("vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got '" + value + "'");
     work_groups_ = value == "on";
   }
+  // How long the host polls a batch's fence before it blocks: on a GPU a blocking wait's wake-up
+  // costs tens of microseconds; a CPU device needs the cores for the batch itself.
+  runtime_->set_fence_poll(std::chrono::microseconds(checks::env_int(
+      "vulkan", "PORTA_VULKAN_FENCE_POLL_US", 0, 1000000, runtime_->context().cpu_device() ? 0 : 1000,
+      "a time in microseconds")));
   queues_ = Runtime::kStreams;
   if (const char* env = std::getenv("PORTA_VULKAN_QUEUES"); env != nullptr && *env != '\0') {
     const std::string value = env;

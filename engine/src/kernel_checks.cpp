@@ -1,6 +1,8 @@
 #include "porta/kernel_checks.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdlib>
 
 #include "porta/tables.hpp"
 
@@ -181,6 +183,18 @@ int usable_capacity(const ConstDeviceList& list,
   std::int64_t n = list.capacity;
   for (const auto& [buffer, record_bytes] : buffers)
     n = std::min<std::int64_t>(n, static_cast<std::int64_t>(buffer->size_bytes() / record_bytes));
+  return static_cast<int>(n);
+}
+
+int env_int(std::string_view backend, const char* variable, int lo, int hi, int fallback, std::string_view what) {
+  const char* env = std::getenv(variable);
+  if (env == nullptr || *env == '\0') return fallback;
+  char* end = nullptr;
+  errno = 0;
+  const long n = std::strtol(env, &end, 10);
+  if (end == env || *end != '\0' || errno != 0 || n < lo || n > hi)
+    throw BackendError(std::string(backend) + ": " + variable + " must be " + std::string(what) + " from " +
+                       std::to_string(lo) + " to " + std::to_string(hi) + ", got '" + env + "'");
   return static_cast<int>(n);
 }
 

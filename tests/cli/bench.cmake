@@ -85,6 +85,10 @@ frames/s"
                    STDERR "opencl: PORTA_OPENCL_QUEUES must be a queue count from 1 to 8, got '0'"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_queues_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_QUEUES=0)
+    porta_cli_test(bench_opencl_poll_bad_value EXIT 1
+                   STDERR "opencl: PORTA_OPENCL_POLL_US must be a time in microseconds from 0 to 1000000, got '-5'"
+                   ARGS bench ${tiny} --backend opencl --no-peer)
+    set_tests_properties(cli.bench_opencl_poll_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_POLL_US=-5)
   endif()
   if(TARGET porta_backend_vulkan)  # lavapipe in CI
     porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
@@ -95,6 +99,10 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_QUEUES must be a queue count from 1 to 8, got '9'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_QUEUES=9)
+    porta_cli_test(bench_vulkan_fence_poll_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_FENCE_POLL_US must be a time in microseconds from 0 to 1000000, got '1ms'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_fence_poll_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FENCE_POLL_US=1ms)
     porta_cli_test(bench_vulkan_device_queues_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to 8, got 'two'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)

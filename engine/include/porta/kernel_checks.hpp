@@ -105,6 +105,11 @@ void check_count_offset(std::string_view backend, std::string_view kernel, const
 int usable_capacity(const ConstDeviceList& list,
                     std::initializer_list<std::pair<const Buffer*, std::size_t>> buffers);
 
+/// The integer in environment variable `variable`, or `fallback` when it is unset or empty; a
+/// BackendError ("<backend>: VARIABLE must be <what> from lo to hi, got '...'") when it is not an
+/// integer in [lo, hi].
+int env_int(std::string_view backend, const char* variable, int lo, int hi, int fallback, std::string_view what);
+
 /// Tiles of tile_w x tile_h pixels over every level of a pyramid, numbered level by level: the
 /// launch geometry of GPU kernels that run all levels in one dispatch, one workgroup per tile.
 /// Level n owns tiles [first[n], first[n + 1]); `across[n]` tiles make one of its rows. Empty
