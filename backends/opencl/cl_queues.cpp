@@ -1,7 +1,6 @@
 // Queues, memory and transfers of the OpenCL backend (opencl_backend.hpp): kQueues in-order
 // command queues as the HAL's queues, kernel enqueueing with profiling events, pinned host buffers
 // and their non-blocking transfers.
-#include <chrono>
 #include <cstring>
 #include <string>
 
@@ -133,23 +132,6 @@ void OpenClBackend::queue_wait(int other) {
 
 void OpenClBackend::finish_queue(int queue) {
   check_queue_index(queue, "finish_queue");
-  if (poll_.count() > 0) {
-    // A marker's status polled first: clFinish may sleep, and its wake-up costs about as much as a
-    // small frame. clFinish below then returns at once (and reports errors).
-    const cl_command_queue q = queues_[static_cast<std::size_t>(queue)];
-    cl_event marker = nullptr;
-    check(clEnqueueMarkerWithWaitList(q, 0, nullptr, &marker), "clEnqueueMarkerWithWaitList",
-          "finish_queue(" + std::to_string(queue) + ")");
-    cl_int status = CL_QUEUED;
-    const cl_int flushed = clFlush(q);
-    const auto until = std::chrono::steady_clock::now() + poll_;
-    while (flushed == CL_SUCCESS &&
-           clGetEventInfo(marker, CL_EVENT_COMMAND_EXECUTION_STATUS, sizeof(status), &status, nullptr) ==
-               CL_SUCCESS &&
-           status > CL_COMPLETE && std::chrono::steady_clock::now() < until) {
-    }
-    clReleaseEvent(marker);
-  }
   check(clFinish(queues_[static_cast<std::size_t>(queue)]), "clFinish", "queue " + std::to_string(queue));
   read_timed_events(queue);
 }

@@ -9,7 +9,6 @@
 #include <sstream>
 
 #include "opencl/cl_errors.hpp"
-#include "porta/kernel_checks.hpp"
 #include "porta/embedded_text.hpp"
 
 namespace porta::opencl {
@@ -143,8 +142,6 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
                         nullptr),
         "clGetDeviceInfo(CL_DEVICE_MAX_WORK_GROUP_SIZE)", device_.label());
   work_groups_ = device_.is_gpu && max_work_group_ >= 256;
-  poll_ = std::chrono::microseconds(checks::env_int("opencl", "PORTA_OPENCL_POLL_US", 0, 1000000,
-                                                    device_.is_gpu ? 1000 : 0, "a time in microseconds"));
   if (const char* env = std::getenv("PORTA_OPENCL_WORK_GROUPS"); env != nullptr && *env != '\0') {
     const std::string value = env;
     if (value != "on" && value != "off")

@@ -9,7 +9,6 @@
 #include <CL/cl.h>
 
 #include <array>
-#include <chrono>
 #include <map>
 #include <memory>
 #include <string>
@@ -144,9 +143,6 @@ class OpenClBackend final : public Backend {
   bool profile_kernels_ = false;
   bool work_groups_ = false;
   std::size_t max_work_group_ = 0;
-  /// finish_queue() polls a marker's status this long before clFinish blocks ($PORTA_OPENCL_POLL_US;
-  /// 1 ms on GPUs, 0 on CPU devices, whose cores run the work).
-  std::chrono::microseconds poll_{0};
   struct TimedDispatch {
     int queue;
     std::string kernel;

@@ -85,10 +85,6 @@ frames/s"
                    STDERR "opencl: PORTA_OPENCL_QUEUES must be a queue count from 1 to 8, got '0'"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_queues_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_QUEUES=0)
-    porta_cli_test(bench_opencl_poll_bad_value EXIT 1
-                   STDERR "opencl: PORTA_OPENCL_POLL_US must be a time in microseconds from 0 to 1000000, got '-5'"
-                   ARGS bench ${tiny} --backend opencl --no-peer)
-    set_tests_properties(cli.bench_opencl_poll_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_POLL_US=-5)
   endif()
   if(TARGET porta_backend_vulkan)  # lavapipe in CI
     porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
