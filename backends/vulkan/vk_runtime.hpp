@@ -115,8 +115,12 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void stream_wait(int other);
   /// Submits the stream's pending batch (if any) and waits for it.
   void finish_stream(int stream);
-  /// Submits every stream's pending batch without waiting (Backend::flush).
-  void start();
+  /// Submits every stream's pending batch without waiting (Backend::flush). With `hold`, a batch
+  /// for a queue the device is still busy with is held back instead, and later ones merged into
+  /// it, until the device is idle at a later start() or the host waits for any batch.
+  void start(bool hold = true);
+  /// $PORTA_VULKAN_HOLD_BATCHES: whether start() holds batches back (on by default).
+  void set_hold_batches(bool on) { hold_batches_ = on; }
   /// Submits every pending batch and waits for all of them.
   void flush();
   /// Backend::kernel_times: flushes, then the totals of the timed dispatches.
@@ -235,6 +239,10 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void submit(Stream& s, VkSemaphore signal);
   /// Waits for the running batch, reads its timestamps and frees what it held.
   void complete(Stream& s);
+  /// True while a batch submitted to `queue` has not finished (its fence, not waited for).
+  bool queue_busy(VkQueue queue);
+  /// Submits the batch start() held back, if any.
+  void submit_held();
   /// Waits on the host until `fence` has signalled, polling it for fence_poll_ first.
   void wait_for(VkFence fence);
   /// Drops the pending batch (after a failed submit; its commands never ran).
@@ -302,6 +310,8 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   double timestamp_ns_ = 1.0;  ///< ns per timestamp tick
   KernelProfile profile_;
   std::chrono::microseconds fence_poll_{0};
+  bool hold_batches_ = true;
+  int held_ = -1;  ///< the stream whose pending batch start() holds back, -1 when none
 };
 
 }  // namespace porta::vulkan

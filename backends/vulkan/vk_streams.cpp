@@ -196,18 +196,54 @@ void Runtime::stream_wait(int other) {
 
 void Runtime::finish_stream(int stream) {
   Stream& s = streams_[static_cast<std::size_t>(stream)];
+  if (s.carrier >= 0) finish_stream(s.carrier);  // its work is in that batch (and is free after it)
   if (!s.pending.empty() || !s.waits.empty()) submit(s, VK_NULL_HANDLE);
   complete(s);
   ctx_->throw_validation_errors("a submitted batch");
 }
 
-void Runtime::start() {
-  for (Stream& s : streams_)
-    if (!s.pending.empty() || !s.waits.empty()) submit(s, VK_NULL_HANDLE);
+bool Runtime::queue_busy(VkQueue queue) {
+  for (const Stream& t : streams_)
+    if (t.running && t.queue == queue && vkGetFenceStatus(ctx_->device(), t.fence.get()) == VK_NOT_READY) return true;
+  return false;
+}
+
+void Runtime::start(bool hold) {
+  for (std::size_t i = 0; i < streams_.size(); ++i) {
+    Stream& s = streams_[i];
+    const int index = static_cast<int>(i);
+    if ((s.pending.empty() && s.waits.empty()) || index == held_) continue;
+    // While the device still runs earlier batches, the batch is held back, and the batches of later
+    // start()s on the same queue are merged into it (their steps side by side, as merge_pending
+    // does for a stereo pair): frames in flight then share barriers instead of each waiting for
+    // every earlier frame's. A wait on the host submits it first (complete), so it is never
+    // held while the host waits.
+    if (hold && hold_batches_ && queue_busy(s.queue)) {
+      if (held_ < 0) {
+        held_ = index;
+        ++stats_.held_batches;
+        continue;
+      }
+      if (streams_[static_cast<std::size_t>(held_)].queue == s.queue) {
+        merge_pending(held_, index);
+        ++stats_.held_batches;
+        continue;
+      }
+    }
+    submit(s, VK_NULL_HANDLE);
+  }
+  if (held_ >= 0 && !(hold && queue_busy(streams_[static_cast<std::size_t>(held_)].queue))) submit_held();
+}
+
+void Runtime::submit_held() {
+  if (held_ < 0) return;
+  Stream& s = streams_[static_cast<std::size_t>(held_)];
+  held_ = -1;
+  submit(s, VK_NULL_HANDLE);
 }
 
 void Runtime::flush() {
-  start();
+  start(/*hold=*/false);
   for (Stream& s : streams_) complete(s);
   collect_garbage();
   ctx_->throw_validation_errors("a submitted batch");
@@ -256,6 +292,7 @@ void Runtime::merge_pending(int into, int from) {
   b.carrier = into;
   for (Stream& t : streams_)
     if (t.carrier == from) t.carrier = into;
+  if (held_ == from) held_ = -1;  // its work now waits in `into`, which its own start() submits or holds
   ++stats_.merged_batches;
 }
 
@@ -269,6 +306,7 @@ void Runtime::release_carried(int carrier) {
 }
 
 void Runtime::drop_pending(Stream& s) {
+  if (held_ == static_cast<int>(&s - streams_.data())) held_ = -1;
   release_carried(static_cast<int>(&s - streams_.data()));
   s.pending.clear();
   s.pending_ids.clear();
@@ -279,6 +317,7 @@ void Runtime::drop_pending(Stream& s) {
 }
 
 void Runtime::submit(Stream& s, VkSemaphore signal) {
+  if (held_ == static_cast<int>(&s - streams_.data())) held_ = -1;
   if (s.running) complete(s);
   try {
     const VkCommandBuffer cmd = s.pending.empty() ? VK_NULL_HANDLE : command_buffer_for(s);
@@ -316,6 +355,7 @@ void Runtime::submit(Stream& s, VkSemaphore signal) {
 
 void Runtime::complete(Stream& s) {
   if (!s.running) return;
+  submit_held();  // the device works on it while the host waits
   s.running = false;  // also when the wait fails: the error is reported once
   const VkFence fence = s.fence.get();
   const VkDevice dev = ctx_->device();

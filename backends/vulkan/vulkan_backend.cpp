@@ -26,6 +26,12 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   runtime_->set_fence_poll(std::chrono::microseconds(checks::env_int(
       "vulkan", "PORTA_VULKAN_FENCE_POLL_US", 0, 1000000, runtime_->context().cpu_device() ? 0 : 1000,
       "a time in microseconds")));
+  if (const char* env = std::getenv("PORTA_VULKAN_HOLD_BATCHES"); env != nullptr && *env != '\0') {
+    const std::string value = env;
+    if (value != "on" && value != "off")
+      throw BackendError("vulkan: PORTA_VULKAN_HOLD_BATCHES must be on or off, got '" + value + "'");
+    runtime_->set_hold_batches(value == "on");
+  }
   queues_ = Runtime::kStreams;
   if (const char* env = std::getenv("PORTA_VULKAN_QUEUES"); env != nullptr && *env != '\0') {
     const std::string value = env;

@@ -71,7 +71,8 @@ struct VulkanStats {
   std::uint64_t command_buffers_recorded = 0;  ///< batches recorded (cache misses)
   std::uint64_t command_buffers_replayed = 0;  ///< batches that reused a recorded command buffer
   std::uint64_t submits = 0;
-  std::uint64_t merged_batches = 0;  ///< stream_wait()s that merged a stream's batch into another's
+  std::uint64_t merged_batches = 0;  ///< batches merged into another (stream_wait, held batches)
+  std::uint64_t held_batches = 0;    ///< batches start() held back while the device was busy
 };
 
 class VulkanBackend final : public Backend {

@@ -183,7 +183,51 @@ TEST_F(VulkanBackendTest, Streams_StereoImagesRunAsOneMergedBatch) {
     const vulkan::VulkanStats after = backend_->stats();
     EXPECT_GE(after.merged_batches - before.merged_batches, 6u) << in_flight << " in flight";
     EXPECT_GT(after.command_buffers_replayed, before.command_buffers_replayed) << in_flight << " in flight";
+    // With frames in flight, a frame submitted while the device runs an earlier one is held back
+    // and the next merged into it; one at a time, the device is idle at every submit.
+    if (in_flight == 1) {
+      EXPECT_EQ(after.held_batches, before.held_batches);
+    }
   }
+}
+
+// Frames in flight while the device is busy: start() holds a frame's batch back and merges later
+// frames' into it; the features are still the cpu backend's, frame by frame, and a held batch is
+// submitted when the host waits for any frame (collect), so nothing waits forever.
+TEST_F(VulkanBackendTest, Streams_FramesInFlightMergeWhileTheDeviceIsBusy) {
+  const FrontendSettings settings = small_settings();
+  std::vector<Image> images;
+  for (int i = 0; i < 5; ++i) images.push_back(test::textured_image(320, 240, 10 + i));
+  auto cpu = BackendRegistry::instance().create("cpu");
+  Frontend reference(*cpu, settings, 320, 240);
+  std::vector<Features> expected;
+  for (const Image& image : images) expected.push_back(reference.detect(image.view()));
+  FrontendOptions options;
+  options.in_flight = 4;
+  Frontend frontend(*backend_, settings, 320, 240, options);
+  const vulkan::VulkanStats before = backend_->stats();
+  std::size_t collected = 0;
+  for (int frame = 0; frame < 20; ++frame) {
+    frontend.submit(images[static_cast<std::size_t>(frame) % images.size()].view());
+    if (frame >= 3) {
+      const Features got = frontend.collect();
+      const Features& want = expected[collected++ % images.size()];
+      ASSERT_EQ(got.keypoints.size(), want.keypoints.size()) << "frame " << collected - 1;
+      EXPECT_EQ(std::memcmp(got.keypoints.data(), want.keypoints.data(), got.keypoints.size() * sizeof(Keypoint)), 0);
+      EXPECT_EQ(got.descriptors.size(), want.descriptors.size());
+      EXPECT_EQ(std::memcmp(got.descriptors.data(), want.descriptors.data(),
+                            got.descriptors.size() * sizeof(Descriptor)),
+                0);
+    }
+  }
+  while (collected < 20) {
+    const Features got = frontend.collect();
+    const Features& want = expected[collected++ % images.size()];
+    EXPECT_EQ(got.keypoints.size(), want.keypoints.size());
+  }
+  const vulkan::VulkanStats after = backend_->stats();
+  EXPECT_GT(after.held_batches, before.held_batches) << "no frame was ever held back";
+  EXPECT_GT(after.merged_batches, before.merged_batches) << "no held frame was merged with another";
 }
 
 TEST_F(VulkanBackendTest, Memory_FillUploadDownloadAtAnyAlignment) {
