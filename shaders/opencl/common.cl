@@ -68,15 +68,19 @@ typedef struct {
   int across[PORTA_MAX_LEVELS];
 } porta_tiles;
 
-// The level of work-group `tile` (-1 past the last level) and the tile's top-left pixel.
-inline int porta_tile_of(const porta_tiles* t, int count, int tile, int2* origin) {
-  *origin = (int2)(0, 0);
-  for (int n = 0; n < count; ++n) {
-    if (tile < t->first[n + 1]) {
-      const int k = tile - t->first[n];
-      *origin = (int2)((k % t->across[n]) * PORTA_TILE_W, (k / t->across[n]) * PORTA_TILE_H);
-      return n;
-    }
+// Sets `level` to the level of work-group `tile` (-1 past the last level) and `origin` to the
+// tile's top-left pixel, reading the kernel argument `tiles` in place (a macro: through a pointer,
+// the argument would be copied to private memory).
+#define PORTA_TILE_OF(tiles, count, tile, level, origin)                                             \
+  {                                                                                                  \
+    level = -1;                                                                                      \
+    origin = (int2)(0, 0);                                                                           \
+    for (int n_ = 0; n_ < (count); ++n_) {                                                           \
+      if ((tile) < tiles.first[n_ + 1]) {                                                            \
+        const int k_ = (tile) - tiles.first[n_];                                                     \
+        origin = (int2)((k_ % tiles.across[n_]) * PORTA_TILE_W, (k_ / tiles.across[n_]) * PORTA_TILE_H); \
+        level = n_;                                                                                  \
+        break;                                                                                       \
+      }                                                                                              \
+    }                                                                                                \
   }
-  return -1;
-}

@@ -375,8 +375,9 @@ void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
                 __global ushort* responses, const porta_levels response_layout, const porta_tiles tiles,
                 const int eps, const int edge) {
   __local int source[PORTA_TILE_H + 6][PORTA_TILE_W + 6];
+  int n;
   int2 origin;
-  const int n = porta_tile_of(&tiles, layout.count, (int)get_group_id(0), &origin);
+  PORTA_TILE_OF(tiles, layout.count, (int)get_group_id(0), n, origin);
   if (n < 0) return;  // the whole work-group
   const porta_plane src = layout.level[n];
   const int tx = (int)get_local_id(0), ty = (int)get_local_id(1);

@@ -121,8 +121,9 @@ void blur_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
                 const porta_tiles tiles, const porta_level_ints taps) {
   __local uint source[PORTA_TILE_H + 6][PORTA_TILE_W + 6];
   __local uint horizontal[PORTA_TILE_H + 6][PORTA_TILE_W];
+  int n;
   int2 origin;
-  const int n = porta_tile_of(&tiles, layout.count, (int)get_group_id(0), &origin);
+  PORTA_TILE_OF(tiles, layout.count, (int)get_group_id(0), n, origin);
   if (n < 0) return;  // the whole work-group
   const porta_plane p = layout.level[n];
   const int tx = (int)get_local_id(0), ty = (int)get_local_id(1);

@@ -27,8 +27,9 @@ shared uint source[IN_H][IN_W];
 shared uint horizontal[IN_H][PORTA_TILE_W];
 
 void main() {
+  int n;
   ivec2 origin;
-  const int n = porta_tile_of(p.tiles, p.layout_.count, int(porta_linear_group()), origin);
+  PORTA_TILE_OF(p.tiles, p.layout_.count, int(porta_linear_group()), n, origin);
   if (n < 0) return;  // the whole workgroup
   const Plane level = p.layout_.level[n];
   const int tid = int(gl_LocalInvocationIndex);

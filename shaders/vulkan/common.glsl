@@ -86,15 +86,19 @@ struct Tiles {
   int across[PORTA_MAX_LEVELS];
 };
 
-// The level of workgroup `tile` (-1 past the last level) and the tile's top-left pixel.
-int porta_tile_of(Tiles t, int count, int tile, out ivec2 origin) {
-  origin = ivec2(0);
-  for (int n = 0; n < count; ++n) {
-    if (tile < t.first[n + 1]) {
-      const int k = tile - t.first[n];
-      origin = ivec2((k % t.across[n]) * PORTA_TILE_W, (k / t.across[n]) * PORTA_TILE_H);
-      return n;
-    }
+// Sets `level` to the level of workgroup `tile` (-1 past the last level) and `origin` to the
+// tile's top-left pixel, reading `tiles` (a Tiles in the parameter buffer) where it lies: a macro,
+// because a function would take its argument by value, a copy of the whole table per invocation.
+#define PORTA_TILE_OF(tiles, count, tile, level, origin)                                     \
+  {                                                                                          \
+    level = -1;                                                                              \
+    origin = ivec2(0);                                                                       \
+    for (int n_ = 0; n_ < (count); ++n_) {                                                   \
+      if ((tile) < tiles.first[n_ + 1]) {                                                    \
+        const int k_ = (tile) - tiles.first[n_];                                             \
+        origin = ivec2((k_ % tiles.across[n_]) * PORTA_TILE_W, (k_ / tiles.across[n_]) * PORTA_TILE_H); \
+        level = n_;                                                                          \
+        break;                                                                               \
+      }                                                                                      \
+    }                                                                                        \
   }
-  return -1;
-}

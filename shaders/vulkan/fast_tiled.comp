@@ -31,8 +31,9 @@ const int kDx[16] = int[16](0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -3, -3, -3, -2, -
 const int kDy[16] = int[16](-3, -3, -2, -1, 0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -3);
 
 void main() {
+  int n;
   ivec2 origin;
-  const int n = porta_tile_of(p.tiles, p.src.count, int(porta_linear_group()), origin);
+  PORTA_TILE_OF(p.tiles, p.src.count, int(porta_linear_group()), n, origin);
   if (n < 0) return;  // the whole workgroup
   const Plane s = p.src.level[n];
   const int tid = int(gl_LocalInvocationIndex);

@@ -15,7 +15,7 @@ function(porta_bench_cli_tests)
   porta_cli_test(help_bench EXIT 0 STDOUT "Usage: portaslam bench.*--resolutions LIST.*--no-peer" ARGS help bench)
   porta_cli_test(bench_help EXIT 0 STDOUT "Usage: portaslam bench.*--frames N" ARGS bench --help)
   porta_cli_test(bench_tiny EXIT 0
-                 STDOUT "backend   cpu: cpu \\(.*peer      opencv-orb: OpenCV .*input     320x240 +(KITTI|EuRoC|SYNTHETIC).*\nbackend +resolution +levels +mode +median_us +p10_us +p90_us +frames/s +keypoints +matches +speedup\ncpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +[0-9.]+x\n(.*\n)?opencv-orb +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-\n"
+                 STDOUT "backend   cpu: cpu \\(.*peer      opencv-orb: OpenCV .*input     320x240 +(KITTI|EuRoC|SYNTHETIC).*\nbackend +resolution +levels +mode +median_us +p10_us +p90_us +mean_us +frames/s +keypoints +matches +speedup\ncpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +[0-9.]+x\n(.*\n)?opencv-orb +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-\n"
                  STDERR "\\[1/[0-9]+\\] cpu +320x240 +levels 1 detect +median.*\\[[0-9]+/[0-9]+\\] opencv-orb"
                  ARGS bench ${tiny})
   porta_cli_test(bench_json EXIT 0 FILE ${porta_cli_dir}/bench.json STDOUT "wrote bench.json"
@@ -37,7 +37,7 @@ function(porta_bench_cli_tests)
   # table has the one cpu row, then the footnote).
   porta_cli_test(bench_in_flight_in_order_backend EXIT 0
                  STDOUT "rows BACKEND/N: throughput.*
-cpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
+cpu +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
 
 frames/s"
                  ARGS bench ${tiny} --backend cpu --no-peer --in-flight 1,4)
@@ -45,7 +45,7 @@ frames/s"
   porta_cli_test(bench_pinned_input EXIT 0
                  STDOUT "
 cpu +320x240 +1 +detect +[0-9]+ .*
-cpu\\+pin +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
+cpu\\+pin +320x240 +1 +detect +[0-9]+ +[0-9]+ +[0-9]+ +[0-9]+ +[0-9.]+ +[0-9]+ +- +-
 
 frames/s"
                  ARGS bench ${tiny} --backend cpu --no-peer --input copy,pinned)
@@ -99,6 +99,10 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_FENCE_POLL_US must be a time in microseconds from 0 to 1000000, got '1ms'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_fence_poll_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FENCE_POLL_US=1ms)
+    porta_cli_test(bench_vulkan_hold_batches_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_HOLD_BATCHES must be on or off, got '1'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_hold_batches_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_HOLD_BATCHES=1)
     porta_cli_test(bench_vulkan_device_queues_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to 8, got 'two'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
