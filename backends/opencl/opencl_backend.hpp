@@ -54,7 +54,7 @@ struct Range {
   int dims = 1;
   static Range linear(std::size_t n, std::size_t local = 0) { return {{n, 1}, {local, 0}, 1}; }
   static Range grid(std::size_t x, std::size_t y) { return {{x, y}, {0, 0}, 2}; }
-  /// One work-group of kTileW x kTileH per tile (porta_tile_of()); `tiles` > 0.
+  /// One work-group of kTileW x kTileH per tile (PORTA_TILE_OF in common.cl); `tiles` > 0.
   static Range tiles(std::size_t tiles);
 };
 
@@ -105,8 +105,8 @@ class OpenClBackend final : public Backend {
   /// Kernels with a work-group per item (cull_cells_group, stereo_match_candidates_group) instead
   /// of a work-item, per 32 x 8 tile of all levels with local memory (fast_tiled, blur_tiled: one
   /// launch where the blur had two), PFA and compaction in one work-group (pfa_group,
-  /// compact_group) instead of three launches each: on a GPU that runs groups of 256, where they pay; a CPU device (PoCL) runs work-items as loops, and
-  /// there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
+  /// compact_group) instead of three launches each: on a GPU that runs groups of 256, where they
+  /// pay; a CPU device (PoCL) runs work-items as loops, and there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
   /// runs both kinds on PoCL). The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
   /// CL_DEVICE_MAX_WORK_GROUP_SIZE.

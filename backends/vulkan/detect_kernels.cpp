@@ -120,7 +120,8 @@ void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
 
 // §3.5: three steps over the cells (accumulate with order-independent atomics, decide, apply) with
 // two level-0 sized scratch maps that are zero between calls (zero when allocated, restored by the
-// last step). GPUs, a few hundred cells: all three in one workgroup (pfa_group.comp); otherwise three dispatches.
+// last step). GPUs, a few hundred cells: all three in one workgroup (pfa_group.comp); otherwise
+// three dispatches.
 void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const porta::PfaParams& params) {
   const int width0 = params.level0_width, height0 = params.level0_height;
   if (width0 <= 0 || height0 <= 0)

@@ -78,7 +78,7 @@ int porta_reflect101(int i, int n) {
 // Tiles of PORTA_TILE_W x PORTA_TILE_H pixels over every level of a pyramid, numbered level by
 // level (porta/kernel_checks.hpp LevelTiles): level n owns workgroups [first[n], first[n + 1]),
 // across[n] of them per row of tiles. Kernels that run all levels in one dispatch, one workgroup
-// per tile, find their level and tile origin with porta_tile_of().
+// per tile, find their level and tile origin with PORTA_TILE_OF below.
 #define PORTA_TILE_W 32
 #define PORTA_TILE_H 8
 struct Tiles {
