@@ -53,25 +53,43 @@ FeatureGrid::FeatureGrid(const FrameFeatures& features, int width, int height, i
     : cols_(std::max(1, (width + cell_px - 1) / cell_px)),
       rows_(std::max(1, (height + cell_px - 1) / cell_px)),
       cell_px_(cell_px),
-      cells_(static_cast<std::size_t>(cols_) * rows_) {
+      cell_begin_(static_cast<std::size_t>(cols_) * rows_ + 1, 0),
+      indices_(features.size()) {
+  // Counting sort by cell: each cell's indices stay ascending, as the features come.
+  std::vector<int> cell_of(features.size());
   for (std::size_t i = 0; i < features.size(); ++i) {
     const int cx = std::clamp(static_cast<int>(features.uv[i].x() / cell_px_), 0, cols_ - 1);
     const int cy = std::clamp(static_cast<int>(features.uv[i].y() / cell_px_), 0, rows_ - 1);
-    cells_[static_cast<std::size_t>(cy) * cols_ + cx].push_back(static_cast<int>(i));
+    cell_of[i] = cy * cols_ + cx;
+    ++cell_begin_[static_cast<std::size_t>(cell_of[i]) + 1];
+  }
+  for (std::size_t c = 1; c < cell_begin_.size(); ++c) cell_begin_[c] += cell_begin_[c - 1];
+  std::vector<int> next(cell_begin_.begin(), cell_begin_.end() - 1);
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    indices_[static_cast<std::size_t>(next[static_cast<std::size_t>(cell_of[i])]++)] = static_cast<int>(i);
   }
 }
 
 std::vector<int> FeatureGrid::in_area(const FrameFeatures& features, float u, float v, float radius,
                                       int min_level, int max_level) const {
   std::vector<int> found;
-  if (cells_.empty() || !(radius >= 0.0f) || !std::isfinite(u) || !std::isfinite(v)) return found;
+  in_area(features, u, v, radius, min_level, max_level, found);
+  return found;
+}
+
+void FeatureGrid::in_area(const FrameFeatures& features, float u, float v, float radius, int min_level,
+                          int max_level, std::vector<int>& found) const {
+  found.clear();
+  if (indices_.empty() || !(radius >= 0.0f) || !std::isfinite(u) || !std::isfinite(v)) return;
   const int x0 = std::max(0, static_cast<int>(std::floor((u - radius) / cell_px_)));
   const int x1 = std::min(cols_ - 1, static_cast<int>(std::floor((u + radius) / cell_px_)));
   const int y0 = std::max(0, static_cast<int>(std::floor((v - radius) / cell_px_)));
   const int y1 = std::min(rows_ - 1, static_cast<int>(std::floor((v + radius) / cell_px_)));
   for (int cy = y0; cy <= y1; ++cy) {
     for (int cx = x0; cx <= x1; ++cx) {
-      for (int i : cells_[static_cast<std::size_t>(cy) * cols_ + cx]) {
+      const std::size_t cell = static_cast<std::size_t>(cy) * cols_ + cx;
+      for (int k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
+        const int i = indices_[static_cast<std::size_t>(k)];
         const int level = features.level[i];
         if (level < min_level || (max_level >= 0 && level > max_level)) continue;
         if (std::abs(features.uv[i].x() - u) <= radius && std::abs(features.uv[i].y() - v) <= radius) {
@@ -80,8 +98,8 @@ std::vector<int> FeatureGrid::in_area(const FrameFeatures& features, float u, fl
       }
     }
   }
-  std::sort(found.begin(), found.end());
-  return found;
+  // One cell's indices are ascending already; several cells' are merged by the sort.
+  if (x0 != x1 || y0 != y1) std::sort(found.begin(), found.end());
 }
 
 Frame::Frame(std::uint64_t id_in, double time_in, std::shared_ptr<const FrameFeatures> features_in,

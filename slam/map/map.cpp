@@ -107,9 +107,14 @@ KeyFrame::KeyFrame(std::uint64_t id_in, const Frame& frame)
 int KeyFrame::tracked_points(int min_observations) const {
   int n = 0;
   for (const MapPoint* point : points) {
-    if (point != nullptr && !point->bad && (min_observations <= 0 || point->num_observations() >= min_observations)) {
-      ++n;
+    if (point == nullptr || point->bad) continue;
+    // num_observations() >= min_observations, counting only as far as needed (tracking asks this
+    // of its reference keyframe every frame).
+    int seen = 0;
+    for (auto it = point->observations.begin(); it != point->observations.end() && seen < min_observations; ++it) {
+      seen += it->first->features->has_depth(it->second) ? 2 : 1;
     }
+    if (seen >= min_observations) ++n;
   }
   return n;
 }

@@ -15,6 +15,7 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
   const Eigen::Vector3d center = keyframe->center();
   const double bf = camera.bf();
   int merged = 0;
+  std::vector<int> candidates;
   for (MapPoint* point : points) {
     if (point == nullptr || point->bad || point->observations.count(keyframe) != 0) continue;
     const Eigen::Vector3d p_c = T_cw * point->position;
@@ -33,9 +34,8 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
 
     const int predicted_level = point->predict_level(distance, pyramid);
     const double radius = radius_factor * pyramid.scale[static_cast<std::size_t>(predicted_level)];
-    const std::vector<int> candidates =
-        keyframe->grid.in_area(features, static_cast<float>(u), static_cast<float>(v),
-                               static_cast<float>(radius), std::max(0, predicted_level - 1), predicted_level);
+    keyframe->grid.in_area(features, static_cast<float>(u), static_cast<float>(v), static_cast<float>(radius),
+                           std::max(0, predicted_level - 1), predicted_level, candidates);
     int best_distance = 256, best_feature = -1;
     for (const int i : candidates) {
       const auto s = static_cast<std::size_t>(i);

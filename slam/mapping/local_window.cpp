@@ -1,9 +1,11 @@
 // Local mapping steps 5 and 6: local bundle adjustment (after ORB-SLAM2's
 // Optimizer::LocalBundleAdjustment, on optim::local_bundle_adjustment) and keyframe culling
 // (after ORB-SLAM2's KeyFrameCulling); see mapping_steps.hpp.
-#include <map>
+#include <algorithm>
+#include <atomic>
 #include <mutex>
 #include <set>
+#include <utility>
 
 #include "mapping_steps.hpp"
 #include "porta/slam/optim/local_bundle_adjustment.hpp"
@@ -22,28 +24,39 @@ BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) 
 }  // namespace
 
 BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, const ScalePyramid& pyramid) {
+  // Membership by marks on the map objects (every caller holds Map::mutex), not by trees: this
+  // runs under the lock tracking waits for, over thousands of points and their observations.
+  static std::atomic<std::uint64_t> marks{0};
+  const std::uint64_t mark = marks.fetch_add(1, std::memory_order_relaxed) + 1;
   BaProblem problem;
-  std::set<MapPoint*, ById> points;
-  for (KeyFrame* kf : local) {
-    for (MapPoint* point : kf->points) {
-      if (point != nullptr && !point->bad) points.insert(point);
-    }
-  }
-  std::set<KeyFrame*, ById> fixed;
-  for (MapPoint* point : points) {
-    for (const auto& [observer, feature] : point->observations) {
-      if (!observer->bad && local.count(observer) == 0) fixed.insert(observer);
-    }
-  }
-
-  std::map<KeyFrame*, std::size_t, ById> index;
-  for (KeyFrame* kf : local) {
-    index[kf] = problem.keyframes.size();
+  for (KeyFrame* kf : local) {  // id order
+    kf->collect_mark = mark;
+    kf->collect_index = problem.keyframes.size();
     problem.keyframes.push_back(kf);
     problem.ba_keyframes.push_back({kf->T_cw, kf->id == 0});  // keyframe 0 anchors the map
   }
+  std::vector<std::pair<std::uint64_t, MapPoint*>> by_id;
+  for (KeyFrame* kf : local) {
+    for (MapPoint* point : kf->points) {
+      if (point == nullptr || point->bad || point->collect_mark == mark) continue;
+      point->collect_mark = mark;
+      by_id.emplace_back(point->id, point);
+    }
+  }
+  std::sort(by_id.begin(), by_id.end());
+  std::vector<MapPoint*> points(by_id.size());
+  for (std::size_t i = 0; i < by_id.size(); ++i) points[i] = by_id[i].second;
+  std::vector<KeyFrame*> fixed;
+  for (MapPoint* point : points) {
+    for (const auto& [observer, feature] : point->observations) {
+      if (observer->bad || observer->collect_mark == mark) continue;
+      observer->collect_mark = mark;
+      fixed.push_back(observer);
+    }
+  }
+  std::sort(fixed.begin(), fixed.end(), ById{});
   for (KeyFrame* kf : fixed) {
-    index[kf] = problem.keyframes.size();
+    kf->collect_index = problem.keyframes.size();
     problem.keyframes.push_back(kf);
     problem.ba_keyframes.push_back({kf->T_cw, true});
   }
@@ -57,12 +70,11 @@ BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, cons
     problem.points.push_back(point);
     problem.positions.push_back(point->position);
     for (const auto& [observer, feature] : point->observations) {
-      const auto it = index.find(observer);
-      if (observer->bad || it == index.end()) continue;
+      if (observer->bad || observer->collect_mark != mark) continue;
       const FrameFeatures& f = *observer->features;
       const auto s = static_cast<std::size_t>(feature);
       optim::BaObservation observation;
-      observation.keyframe = it->second;
+      observation.keyframe = observer->collect_index;
       observation.point = point_index;
       observation.u_left = f.uv[s].x();
       observation.v = f.uv[s].y();

@@ -3,15 +3,16 @@
 // One 6-dof block against up to a few thousand residuals, solved ~80 times per tracked frame: a
 // general solver's per-solve set-up costs more than the arithmetic, so the Levenberg-Marquardt
 // loop is written out here (normal equations accumulated directly into a 6x6 system, the Huber loss
-// as iteratively reweighted least squares, as g2o in ORB-SLAM2). The residuals and Jacobians are
-// the same analytic cost functions the bundle adjustment gives Ceres (reprojection_costs.hpp).
+// as iteratively reweighted least squares, as g2o in ORB-SLAM2). The residuals are the bundle
+// adjustment's (camera_residual, reprojection_costs.hpp); the rotation is computed once per pass
+// and the Jacobian taken in the tangent space directly (tracking's largest cost before: a virtual
+// call, a quaternion-to-matrix conversion and a 3x7 by 7x6 product per observation and pass).
 #include "porta/slam/optim/pose_optimization.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -24,27 +25,66 @@ namespace {
 
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 using Vector6 = Eigen::Matrix<double, 6, 1>;
+using Mat3 = Eigen::Matrix3d;
+using Vec3 = Eigen::Vector3d;
 
-/// Levenberg-Marquardt over the active observations, from `x`; at most `max_iterations` steps.
-/// Stops when the relative cost decrease falls below 1e-6 or the step below 1e-10 (Ceres'
-/// default tolerances).
-void levenberg_marquardt(PoseParams& x, std::span<const PoseObservation> observations,
-                         const std::vector<std::unique_ptr<ceres::CostFunction>>& costs,
-                         const std::vector<bool>& active, bool robust, int max_iterations,
-                         const PoseOptimizationOptions& options) {
+/// One observation as the loop reads it: the point, the measurement (u_l, v[, u_r]), the square
+/// root of its information and its chi2 threshold (the Huber width's square).
+struct Term {
+  Vec3 X;
+  double observation[3] = {0.0, 0.0, 0.0};
+  double s = 1.0;
+  double delta2 = 0.0;
+  bool stereo = false;
+};
+
+/// The pose as every term needs it: the rotation once per pass, not once per term.
+struct PoseAt {
+  Mat3 R;
+  Vec3 t;
+  explicit PoseAt(const PoseParams& x) : R(pose_rotation(x.data())), t(x[4], x[5], x[6]) {}
+};
+
+/// Residual of `term` at the pose (3 rows; the third is 0 for a mono term), its point in the camera
+/// frame, and, with `dr_dp`, the residual's derivative by that point (third row 0 for mono).
+bool residual_at(const ProjectionModel& m, const Term& term, const PoseAt& pose, Vec3& p, Vec3& r,
+                 Mat3* dr_dp) {
+  p = pose.R * term.X + pose.t;
+  if (term.stereo) return camera_residual<3>(m, term.observation, term.s, p, r.data(), dr_dp);
+  Eigen::Matrix<double, 2, 3> d2;
+  if (!camera_residual<2>(m, term.observation, term.s, p, r.data(), dr_dp != nullptr ? &d2 : nullptr)) return false;
+  r[2] = 0.0;
+  if (dr_dp != nullptr) {
+    dr_dp->topRows<2>() = d2;
+    dr_dp->row(2).setZero();
+  }
+  return true;
+}
+
+Mat3 skew(const Vec3& v) {
+  Mat3 m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+/// Levenberg-Marquardt over the active terms, from `x`; at most `max_iterations` steps. Stops when
+/// the relative cost decrease falls below 1e-6 or the step below 1e-10 (Ceres' default tolerances).
+/// The Jacobian is taken in the tangent space directly: for the left increment T <- exp(d) T of
+/// se3_manifold.hpp, d p / d [phi; rho] = [-[p]x  I], as the bundle adjustment's Schur solver does.
+void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std::vector<Term>& terms,
+                         const std::vector<bool>& active, bool robust, int max_iterations) {
   const Se3Manifold manifold;
-  const std::size_t n = observations.size();
-  const auto delta2 = [&](std::size_t i) { return observations[i].is_stereo() ? options.chi2_stereo : options.chi2_mono; };
+  const std::size_t n = terms.size();
 
   // Total robust cost at `params`; false when a residual cannot be evaluated.
   const auto total_cost = [&](const PoseParams& params, double& cost) {
-    const double* const blocks[] = {params.data()};
+    const PoseAt pose(params);
     cost = 0.0;
+    Vec3 p, r;
     for (std::size_t i = 0; i < n; ++i) {
       if (!active[i]) continue;
-      double r[3] = {0.0, 0.0, 0.0};
-      if (!costs[i]->Evaluate(blocks, r, nullptr)) return false;
-      cost += detail::huber_weight(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], delta2(i), robust).cost;
+      if (!residual_at(model, terms[i], pose, p, r, nullptr)) return false;
+      cost += detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust).cost;
     }
     return true;
   };
@@ -53,24 +93,20 @@ void levenberg_marquardt(PoseParams& x, std::span<const PoseObservation> observa
   if (!total_cost(x, cost)) return;
   double lambda = 1e-4;
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    // Normal equations in the tangent space: J_tangent = J_ambient (rows x 7) * PlusJacobian (7 x 6).
-    Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus_jacobian;
-    manifold.PlusJacobian(x.data(), plus_jacobian.data());
     Matrix6 H = Matrix6::Zero();
     Vector6 g = Vector6::Zero();
-    const double* const blocks[] = {x.data()};
+    const PoseAt pose(x);
+    Vec3 p, r;
+    Mat3 dr_dp;
+    Eigen::Matrix<double, 3, 6> J;
     for (std::size_t i = 0; i < n; ++i) {
       if (!active[i]) continue;
-      const int rows = observations[i].is_stereo() ? 3 : 2;
-      double r[3] = {0.0, 0.0, 0.0};
-      Eigen::Matrix<double, 3, 7, Eigen::RowMajor> J_ambient = Eigen::Matrix<double, 3, 7, Eigen::RowMajor>::Zero();
-      double* jacobians[] = {J_ambient.data()};
-      if (!costs[i]->Evaluate(blocks, r, jacobians)) return;
-      const detail::HuberWeight w = detail::huber_weight(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], delta2(i), robust);
-      const Eigen::Matrix<double, 3, 6> J = J_ambient * plus_jacobian;
-      const Eigen::Vector3d residual(r[0], r[1], r[2]);
-      H.noalias() += w.weight * J.topRows(rows).transpose() * J.topRows(rows);
-      g.noalias() += w.weight * J.topRows(rows).transpose() * residual.head(rows);
+      if (!residual_at(model, terms[i], pose, p, r, &dr_dp)) return;
+      const double w = detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust).weight;
+      J.leftCols<3>().noalias() = -dr_dp * skew(p);
+      J.rightCols<3>() = dr_dp;
+      H.noalias() += w * J.transpose() * J;
+      g.noalias() += w * J.transpose() * r;
     }
     if (g.lpNorm<Eigen::Infinity>() <= 1e-10) return;
 
@@ -122,23 +158,27 @@ PoseOptimizationResult optimize_pose(const StereoCamera& camera, const SE3& T_cw
   if (n < 3) return result;
 
   const ProjectionModel model = ProjectionModel::from(camera);
-  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
-  costs.reserve(n);
-  for (const PoseObservation& o : observations) {
-    const double sqrt_info = 1.0 / std::sqrt(o.sigma2);
-    if (o.is_stereo()) {
-      costs.push_back(std::make_unique<StereoPoseOnlyCost>(model, StereoMeasurement{o.u_left, o.v, o.u_right},
-                                                           sqrt_info, o.point_world));
-    } else {
-      costs.push_back(std::make_unique<MonoPoseOnlyCost>(model, o.u_left, o.v, sqrt_info, o.point_world));
-    }
+  std::vector<Term> terms(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const PoseObservation& o = observations[i];
+    Term& term = terms[i];
+    term.X = o.point_world;
+    term.observation[0] = o.u_left;
+    term.observation[1] = o.v;
+    term.observation[2] = o.is_stereo() ? o.u_right : 0.0;
+    term.s = 1.0 / std::sqrt(o.sigma2);
+    term.stereo = o.is_stereo();
+    term.delta2 = term.stereo ? options.chi2_stereo : options.chi2_mono;
   }
 
   const PoseParams initial = pose_to_params(T_cw_initial);
   PoseParams x = initial;
   std::vector<bool>& inlier = result.inlier;
-  for (std::size_t i = 0; i < n; ++i) {  // a point behind the camera is an outlier from the start
-    inlier[i] = transform_to_camera(x.data(), observations[i].point_world).z() > 0.0;
+  {
+    const PoseAt pose(x);
+    for (std::size_t i = 0; i < n; ++i) {  // a point behind the camera is an outlier from the start
+      inlier[i] = (pose.R * terms[i].X + pose.t).z() > 0.0;
+    }
   }
   result.num_inliers = static_cast<int>(std::count(inlier.begin(), inlier.end(), true));
 
@@ -146,21 +186,17 @@ PoseOptimizationResult optimize_pose(const StereoCamera& camera, const SE3& T_cw
     if (options.restart_each_round) x = initial;
     const bool robust = round < options.robust_rounds;
     if (std::count(inlier.begin(), inlier.end(), true) < 3) break;
-    levenberg_marquardt(x, observations, costs, inlier, robust, options.iterations_per_round, options);
+    levenberg_marquardt(model, x, terms, inlier, robust, options.iterations_per_round);
     ++result.rounds_run;
     result.optimized = true;
 
     // Re-classify every observation, the excluded ones too, at the new pose.
     int inliers = 0;
-    const double* const params[] = {x.data()};
+    const PoseAt pose(x);
+    Vec3 p, r;
     for (std::size_t i = 0; i < n; ++i) {
-      const PoseObservation& o = observations[i];
-      double residual[3] = {0.0, 0.0, 0.0};
-      const bool evaluated = costs[i]->Evaluate(params, residual, nullptr);
-      const double chi2 = residual[0] * residual[0] + residual[1] * residual[1] + residual[2] * residual[2];
-      const double threshold = o.is_stereo() ? options.chi2_stereo : options.chi2_mono;
-      const bool in_front = transform_to_camera(x.data(), o.point_world).z() > 0.0;
-      inlier[i] = evaluated && in_front && chi2 <= threshold;
+      const bool evaluated = residual_at(model, terms[i], pose, p, r, nullptr);
+      inlier[i] = evaluated && p.z() > 0.0 && r.squaredNorm() <= terms[i].delta2;
       inliers += inlier[i] ? 1 : 0;
     }
     result.num_inliers = inliers;

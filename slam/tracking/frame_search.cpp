@@ -90,6 +90,7 @@ int search_last_frame(Frame& current, const Frame& last, double th_px, const Sea
 
   RotationHistogram histogram;
   int matches = 0;
+  std::vector<int> candidates;
   for (std::size_t i = 0; i < last_features.size(); ++i) {
     MapPoint* point = last.points[i];
     if (point == nullptr || last.outlier[i] || point->bad) continue;
@@ -105,9 +106,8 @@ int search_last_frame(Frame& current, const Frame& last, double th_px, const Sea
       min_level = 0;
       max_level = last_level;
     }
-    const std::vector<int> candidates =
-        current.grid.in_area(features, static_cast<float>(p.u), static_cast<float>(p.v),
-                             static_cast<float>(radius), min_level, max_level);
+    current.grid.in_area(features, static_cast<float>(p.u), static_cast<float>(p.v), static_cast<float>(radius),
+                         min_level, max_level, candidates);
     const double u_right = p.u - camera.bf() / p.in_camera.z();
     int best = -1, best_distance = 256;
     for (const int c : candidates) {
@@ -138,6 +138,7 @@ int search_keyframe(Frame& current, const KeyFrame& keyframe, double th_px, cons
   const int top_level = geometry.pyramid.levels - 1;
   RotationHistogram histogram;
   int matches = 0;
+  std::vector<int> candidates;
   for (std::size_t i = 0; i < kf_features.size(); ++i) {
     MapPoint* point = keyframe.points[i];
     if (point == nullptr || point->bad) continue;
@@ -145,9 +146,8 @@ int search_keyframe(Frame& current, const KeyFrame& keyframe, double th_px, cons
     if (!project(point->position, current.T_cw, geometry.camera, p)) continue;
     const int level = point->predict_level((point->position - center).norm(), geometry.pyramid);
     const double radius = th_px * geometry.pyramid.scale[static_cast<std::size_t>(level)];
-    const std::vector<int> candidates = current.grid.in_area(
-        features, static_cast<float>(p.u), static_cast<float>(p.v), static_cast<float>(radius),
-        std::max(0, level - 1), std::min(top_level, level + 1));
+    current.grid.in_area(features, static_cast<float>(p.u), static_cast<float>(p.v), static_cast<float>(radius),
+                         std::max(0, level - 1), std::min(top_level, level + 1), candidates);
     int best = -1, best_distance = 256, second_distance = 256;
     for (const int c : candidates) {
       if (current.points[static_cast<std::size_t>(c)] != nullptr) continue;

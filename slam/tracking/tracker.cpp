@@ -6,11 +6,11 @@
 #include "porta/slam/tracker.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <unordered_set>
 #include <utility>
 
 #include "frame_search.hpp"
@@ -128,6 +128,7 @@ struct Tracker::Impl {
   std::vector<KeyFrame*> local_keyframes;
   std::vector<MapPoint*> local_points;
   std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
+  std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
   std::string lost_reason;
 };
 
@@ -278,37 +279,47 @@ bool Tracker::Impl::track_reference_keyframe(Frame& frame, const Frame& last, Tr
 // ---- Local map ----------------------------------------------------------------------------------
 
 void Tracker::Impl::update_local_keyframes(Frame& frame) {
-  // Votes: how many of the frame's points each keyframe observes (id order: deterministic).
-  std::map<KeyFrame*, int, ById> votes;
+  // Votes: how many of the frame's points each keyframe observes, counted on the keyframes (a mark
+  // per frame instead of a map), then visited in id order (deterministic).
+  const std::uint64_t vote_mark = ++keyframe_vote_mark;
+  std::vector<KeyFrame*> voters;
   for (MapPoint*& point : frame.points) {
     if (point == nullptr) continue;
     if (point->bad) {
       point = nullptr;
       continue;
     }
-    for (const auto& [keyframe, feature] : point->observations) ++votes[keyframe];
+    for (const auto& [keyframe, feature] : point->observations) {
+      if (keyframe->tracking_vote_mark != vote_mark) {
+        keyframe->tracking_vote_mark = vote_mark;
+        keyframe->tracking_votes = 0;
+        voters.push_back(keyframe);
+      }
+      ++keyframe->tracking_votes;
+    }
   }
-  if (votes.empty()) return;
+  if (voters.empty()) return;
+  std::sort(voters.begin(), voters.end(), ById{});
 
   local_keyframes.clear();
-  std::unordered_set<std::uint64_t> included;  // membership only, never iterated
+  const std::uint64_t local_mark = ++keyframe_local_mark;  // membership of local_keyframes
   KeyFrame* most_shared = nullptr;
   int most = 0;
-  for (const auto& [keyframe, count] : votes) {
+  for (KeyFrame* keyframe : voters) {
     if (keyframe->bad) continue;
     local_keyframes.push_back(keyframe);
-    included.insert(keyframe->id);
-    if (count > most) {
-      most = count;
+    keyframe->tracking_local_mark = local_mark;
+    if (keyframe->tracking_votes > most) {
+      most = keyframe->tracking_votes;
       most_shared = keyframe;
     }
   }
   // Widen by a neighbour of each: a covisible keyframe, a child and the parent (as ORB-SLAM2).
   auto add_first_new = [&](auto&& candidates) {
     for (KeyFrame* k : candidates) {
-      if (k == nullptr || k->bad || included.count(k->id) != 0) continue;
+      if (k == nullptr || k->bad || k->tracking_local_mark == local_mark) continue;
       local_keyframes.push_back(k);
-      included.insert(k->id);
+      k->tracking_local_mark = local_mark;
       return;
     }
   };
@@ -316,10 +327,13 @@ void Tracker::Impl::update_local_keyframes(Frame& frame) {
   for (std::size_t k = 0; k < voted && local_keyframes.size() < kMaxLocalKeyframes; ++k) {
     KeyFrame* keyframe = local_keyframes[k];
     add_first_new(keyframe->best_covisibles(kCovisiblesPerKeyframe));
-    std::vector<KeyFrame*> children;
-    for (const auto& [child, unused] : keyframe->children) children.push_back(child);
-    add_first_new(children);
-    add_first_new(std::vector<KeyFrame*>{keyframe->parent});
+    for (const auto& [child, unused] : keyframe->children) {
+      if (!child->bad && child->tracking_local_mark != local_mark) {
+        add_first_new(std::array<KeyFrame*, 1>{child});
+        break;
+      }
+    }
+    add_first_new(std::array<KeyFrame*, 1>{keyframe->parent});
   }
   if (most_shared != nullptr) {
     reference_keyframe = most_shared;

@@ -60,10 +60,14 @@ class FeatureGrid {
   /// level is in [min_level, max_level] (max_level < 0: no upper bound), in ascending index order.
   std::vector<int> in_area(const FrameFeatures& features, float u, float v, float radius, int min_level = 0,
                            int max_level = -1) const;
+  /// The same into `found` (cleared first): loops that query per point reuse one buffer.
+  void in_area(const FrameFeatures& features, float u, float v, float radius, int min_level, int max_level,
+               std::vector<int>& found) const;
 
  private:
   int cols_ = 0, rows_ = 0, cell_px_ = 16;
-  std::vector<std::vector<int>> cells_;
+  std::vector<int> cell_begin_;  ///< cell c's features are indices_[cell_begin_[c], cell_begin_[c + 1])
+  std::vector<int> indices_;     ///< feature indices by cell, ascending within a cell
 };
 
 class MapPoint;

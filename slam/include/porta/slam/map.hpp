@@ -70,6 +70,8 @@ class MapPoint {
   /// Tracking's marks, under Map::mutex and not saved: the last local-map build that listed the
   /// point and the last frame that matched it (membership tests without a hash set per frame).
   std::uint64_t tracking_local_mark = 0, tracking_frame_mark = 0;
+  /// Bundle adjustment's collection mark (mapping::collect_bundle_adjustment), under Map::mutex.
+  std::uint64_t collect_mark = 0;
 
   int num_observations() const;  ///< stereo observations count 2, as in ORB-SLAM2
   double found_ratio() const { return static_cast<double>(found) / visible; }
@@ -104,6 +106,13 @@ class KeyFrame {
   /// Set when the keyframe is culled: its pose relative to its parent then (T_cw * T_parent_w^-1),
   /// so that frames that referred to it follow the parent through later corrections (ORB-SLAM2's Tcp).
   SE3 T_c_parent = SE3::Identity();
+  /// Tracking's marks, under Map::mutex and not saved: the last frame whose points voted for this
+  /// keyframe with their count, and the last local map that listed it.
+  std::uint64_t tracking_vote_mark = 0, tracking_local_mark = 0;
+  int tracking_votes = 0;
+  /// Bundle adjustment's collection mark and this keyframe's index in that problem, under Map::mutex.
+  std::uint64_t collect_mark = 0;
+  std::size_t collect_index = 0;
 
   Eigen::Vector3d center() const { return T_cw.inverse().translation(); }
   /// Map points with at least `min_observations` observations (0: all good points).
