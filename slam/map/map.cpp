@@ -1,6 +1,7 @@
 #include "porta/slam/map.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -37,25 +38,39 @@ int MapPoint::num_observations() const {
 }
 
 void MapPoint::update_descriptor() {
-  std::vector<const Descriptor*> candidates;
+  // Up to kSmall observations (nearly every point) on the stack: this runs for each point a
+  // keyframe links or creates, under the map lock.
+  constexpr std::size_t kSmall = 32;
+  std::array<const Descriptor*, kSmall> small_candidates;
+  std::vector<const Descriptor*> large_candidates;
+  const bool small = observations.size() <= kSmall;
+  if (!small) large_candidates.resize(observations.size());
+  const Descriptor** candidates = small ? small_candidates.data() : large_candidates.data();
+  std::size_t n = 0;
   for (const auto& [keyframe, feature] : observations) {
-    if (!keyframe->bad) candidates.push_back(&keyframe->features->descriptors[feature]);
+    if (!keyframe->bad) candidates[n++] = &keyframe->features->descriptors[feature];
   }
-  if (candidates.empty()) return;
-  const std::size_t n = candidates.size();
-  std::vector<int> distances(n * n, 0);
+  if (n == 0) return;
+  std::array<int, kSmall * kSmall> small_distances;
+  std::array<int, kSmall> small_row;
+  std::vector<int> large_distances, large_row;
+  if (!small) {
+    large_distances.resize(n * n);
+    large_row.resize(n);
+  }
+  int* distances = small ? small_distances.data() : large_distances.data();
+  int* row = small ? small_row.data() : large_row.data();
   for (std::size_t i = 0; i < n; ++i) {
+    distances[i * n + i] = 0;
     for (std::size_t j = i + 1; j < n; ++j) {
       distances[i * n + j] = distances[j * n + i] = hamming_distance(*candidates[i], *candidates[j]);
     }
   }
   int best_median = std::numeric_limits<int>::max();
   std::size_t best = 0;
-  std::vector<int> row(n);
   for (std::size_t i = 0; i < n; ++i) {
-    std::copy(distances.begin() + static_cast<std::ptrdiff_t>(i * n),
-              distances.begin() + static_cast<std::ptrdiff_t>((i + 1) * n), row.begin());
-    std::nth_element(row.begin(), row.begin() + static_cast<std::ptrdiff_t>((n - 1) / 2), row.end());
+    std::copy(distances + i * n, distances + (i + 1) * n, row);
+    std::nth_element(row, row + (n - 1) / 2, row + n);
     const int median = row[(n - 1) / 2];
     if (median < best_median) {  // ties keep the earliest keyframe: deterministic
       best_median = median;

@@ -6,9 +6,15 @@ namespace porta::slam::mapping {
 
 int descriptor_distance(const Descriptor& a, const Descriptor& b) { return hamming_distance(a, b); }
 
-std::vector<MapPoint*> link_keyframe_points(KeyFrame* keyframe, const ScalePyramid& pyramid) {
+std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
+                                            const ScalePyramid& pyramid) {
+  // A keyframe links ~1 000 points (a descriptor and a normal each): ~1 ms under the lock on a
+  // desktop core, which a tracker running at hundreds of frames per second would wait for whole.
+  constexpr std::size_t kLinkChunk = 128;
   std::vector<MapPoint*> created;
   for (std::size_t i = 0; i < keyframe->points.size(); ++i) {
+    // After a yield every point is read again (loop closing may have fused some meanwhile).
+    if (i > 0 && i % kLinkChunk == 0 && map.yield_to_waiters(lock) && keyframe->bad) return created;
     MapPoint* point = keyframe->points[i];
     if (point == nullptr) continue;
     // Tracking may hand over a point that fusion merged while the keyframe waited in the queue.

@@ -173,9 +173,9 @@ void LocalMapper::process(KeyFrame* keyframe) {
 
   begin_step();
   {
-    std::lock_guard lock(map_.mutex);
+    std::unique_lock lock(map_.mutex);
     if (!keyframe->bad) {
-      const std::vector<MapPoint*> created = mapping::link_keyframe_points(keyframe, pyramid_);
+      const std::vector<MapPoint*> created = mapping::link_keyframe_points(map_, lock, keyframe, pyramid_);
       recent_points_.insert(recent_points_.end(), created.begin(), created.end());
     }
   }

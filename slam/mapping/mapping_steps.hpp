@@ -34,11 +34,13 @@ inline constexpr int kMaxRecentObservationsToCull = 3;
 /// Hamming distance of two descriptors on 64-bit words (same value as porta::slam::hamming_distance).
 int descriptor_distance(const Descriptor& a, const Descriptor& b);
 
-/// Step 1 (caller holds the lock): makes sure every point tracking matched (following merges) is
-/// observed by `keyframe`, refreshes the points' normals, depth ranges and descriptors, and updates
-/// the keyframe's covisibility edges. Returns the points `keyframe` created (first_keyframe_id ==
-/// keyframe->id), which the recent-point culling watches.
-std::vector<MapPoint*> link_keyframe_points(KeyFrame* keyframe, const ScalePyramid& pyramid);
+/// Step 1 (caller holds `lock` on Map::mutex): makes sure every point tracking matched (following
+/// merges) is observed by `keyframe`, refreshes the points' normals, depth ranges and descriptors,
+/// and updates the keyframe's covisibility edges. Every kLinkChunk points it hands the lock to a
+/// waiting tracker (Map::yield_to_waiters). Returns the points `keyframe` created
+/// (first_keyframe_id == keyframe->id), which the recent-point culling watches.
+std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
+                                            const ScalePyramid& pyramid);
 
 /// Step 2 (caller holds the lock): ORB-SLAM2's MapPointCulling over `recent` as of keyframe
 /// `current_keyframe_id`; culled points go bad, points old enough leave the list. Returns the

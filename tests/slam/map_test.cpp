@@ -175,6 +175,25 @@ TEST(Map, RepresentativeDescriptorHasTheLeastMedianDistance) {
   EXPECT_EQ(hamming_distance(p->descriptor, Descriptor{}), 8);
 }
 
+// Above 32 observations the distance table moves from the stack to the heap: same rule there.
+// Observation k (0..40) has its first k bits set, so distances are |a - b|: the median of a's row
+// is 10 for every a in 10..30 and larger outside, and the tie goes to the earliest, a = 10.
+TEST(Map, RepresentativeDescriptorOfAPointSeenByManyKeyframes) {
+  Map map;
+  MapPoint* p = nullptr;
+  for (int k = 0; k <= 40; ++k) {
+    auto f = std::make_shared<FrameFeatures>(*grid_features(1));
+    f->descriptors[0].bytes.fill(0);
+    for (int j = 0; j < k; ++j) f->descriptors[0].bytes[j / 8] |= static_cast<std::uint8_t>(1u << (j % 8));
+    KeyFrame* kf = map.add_keyframe(Frame(k, 0.0, f, kCamera));
+    if (p == nullptr) p = map.add_point(Eigen::Vector3d(0, 0, 5), kf, 0);
+    Map::add_observation(p, kf, 0);
+  }
+  ASSERT_EQ(p->observations.size(), 41u);
+  p->update_descriptor();
+  EXPECT_EQ(hamming_distance(p->descriptor, Descriptor{}), 10);
+}
+
 TEST(Map, ScaleRangeAndPredictedLevel) {
   const ScalePyramid pyramid(8, 1.2);
   Map map;
