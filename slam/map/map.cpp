@@ -176,11 +176,20 @@ std::vector<std::pair<KeyFrame*, int>> by_weight(const std::map<KeyFrame*, int, 
 }  // namespace
 
 std::vector<KeyFrame*> KeyFrame::best_covisibles(std::size_t n) const {
-  std::vector<KeyFrame*> out;
-  for (const auto& [keyframe, weight] : by_weight(connections)) {
-    if (out.size() >= n) break;
-    if (!keyframe->bad) out.push_back(keyframe);
+  // The good neighbours, then only the best n of them ordered (tracking asks this of every local
+  // keyframe on every frame): by decreasing weight, ties by id, as by_weight() orders them.
+  std::vector<std::pair<KeyFrame*, int>> good;
+  good.reserve(connections.size());
+  for (const auto& [keyframe, weight] : connections) {
+    if (!keyframe->bad) good.emplace_back(keyframe, weight);
   }
+  const std::size_t kept = std::min(n, good.size());
+  std::partial_sort(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(kept), good.end(),
+                    [](const auto& a, const auto& b) {
+                      return a.second != b.second ? a.second > b.second : a.first->id < b.first->id;
+                    });
+  std::vector<KeyFrame*> out(kept);
+  for (std::size_t i = 0; i < kept; ++i) out[i] = good[i].first;
   return out;
 }
 

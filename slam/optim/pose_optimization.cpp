@@ -105,9 +105,14 @@ void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std:
       const double w = detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust).weight;
       J.leftCols<3>().noalias() = -dr_dp * skew(p);
       J.rightCols<3>() = dr_dp;
-      H.noalias() += w * J.transpose() * J;
-      g.noalias() += w * J.transpose() * r;
+      // H is symmetric: its upper triangle only (21 of 36 entries), the lower copied after the sum.
+      for (int a = 0; a < 6; ++a) {
+        const double wa0 = w * J(0, a), wa1 = w * J(1, a), wa2 = w * J(2, a);
+        for (int b = a; b < 6; ++b) H(a, b) += wa0 * J(0, b) + wa1 * J(1, b) + wa2 * J(2, b);
+        g[a] += wa0 * r[0] + wa1 * r[1] + wa2 * r[2];
+      }
     }
+    H.triangularView<Eigen::StrictlyLower>() = H.transpose();
     if (g.lpNorm<Eigen::Infinity>() <= 1e-10) return;
 
     // Damped steps until one lowers the cost (Marquardt's diagonal scaling).
