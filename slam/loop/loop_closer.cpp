@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
+#include <utility>
 
 #include "loop_steps.hpp"
 #include "porta/slam/elapsed.hpp"
@@ -136,27 +137,43 @@ std::vector<std::uint8_t> LoopCloser::serialize_database() const {
 void LoopCloser::process(KeyFrame* keyframe) {
   LoopTimes times;
   const auto start = Clock::now();
+  // The map's lock (which tracking waits for) only where map objects are read: the database query
+  // and the candidates' descriptor matching (milliseconds each) read the keyframes' immutable
+  // features and run without it. Deterministic mode runs the same steps in the same order.
   std::vector<KeyFrame*> consistent;
+  bool searching = false;
   {
     std::lock_guard map_lock(map_.mutex);
     if (keyframe->bad) return;
     std::lock_guard lock(database_mutex_);
     impl_->purge_bad();
-    const bool searching = settings_.loop_closing && map_.num_keyframes() > static_cast<std::size_t>(loop::kMinKeyframesBetweenLoops) &&
-                           (!impl_->any_loop || keyframe->id >= impl_->last_loop_keyframe + loop::kMinKeyframesBetweenLoops);
-    if (searching) {
-      const std::vector<PlaceScore> scores = impl_->database.query(keyframe->features->descriptors);
-      const std::vector<KeyFrame*> candidates = loop::loop_candidates(map_, keyframe, scores);
-      consistent = loop::consistent_candidates(candidates, impl_->groups);
-    }
+    searching = settings_.loop_closing && map_.num_keyframes() > static_cast<std::size_t>(loop::kMinKeyframesBetweenLoops) &&
+                (!impl_->any_loop || keyframe->id >= impl_->last_loop_keyframe + loop::kMinKeyframesBetweenLoops);
+  }
+  std::vector<PlaceScore> scores;
+  {
+    std::lock_guard lock(database_mutex_);
+    if (searching) scores = impl_->database.query(keyframe->features->descriptors);
     impl_->database.add(keyframe->id, keyframe->features->descriptors);
     impl_->stored.push_back(keyframe);
+  }
+  if (searching) {
+    std::lock_guard map_lock(map_.mutex);
+    if (!keyframe->bad) consistent = loop::consistent_candidates(loop::loop_candidates(map_, keyframe, scores), impl_->groups);
   }
   times.detect_ns = elapsed_ns(start);
 
   bool closed = false;
   for (KeyFrame* candidate : consistent) {
     const auto verify_start = Clock::now();
+    std::vector<int> from_query, from_candidate;
+    {
+      std::lock_guard map_lock(map_.mutex);
+      if (keyframe->bad || candidate->bad) continue;
+      from_query = loop::features_with_points(*keyframe);
+      from_candidate = loop::features_with_points(*candidate);
+    }
+    std::vector<FeatureMatch> matches = loop::match_loop_features(*keyframe, from_query, *candidate, from_candidate);
     std::unique_lock map_lock(map_.mutex);
     if (keyframe->bad || candidate->bad) continue;
     loop::LoopMatch match;
@@ -165,7 +182,7 @@ void LoopCloser::process(KeyFrame* keyframe) {
     event.loop_keyframe = candidate->id;
     event.frame = keyframe->frame_id;
     event.loop_frame = candidate->frame_id;
-    const bool verified = loop::verify_loop(keyframe, candidate, settings_, impl_->pyramid, match);
+    const bool verified = loop::verify_loop(keyframe, candidate, std::move(matches), settings_, impl_->pyramid, match);
     event.matches = match.matches;
     event.ransac_inliers = match.ransac_inliers;
     event.inliers = match.inliers;

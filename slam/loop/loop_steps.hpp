@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "../mapping/mapping_steps.hpp"
+#include "porta/slam/feature_matching.hpp"
 #include "porta/slam/frame.hpp"
 #include "porta/slam/map.hpp"
 #include "porta/slam/place_recognition.hpp"
@@ -55,11 +56,21 @@ struct LoopMatch {
   std::string rejected;  ///< empty when verified
 };
 
-/// Descriptor matches between the two keyframes' map points, RANSAC over the 3-D pairs (SE(3)),
-/// the loop group's points projected with the estimate, and the query keyframe's pose optimised
-/// against them. True when at least kMinLoopInliers remain.
-bool verify_loop(KeyFrame* query, KeyFrame* candidate, const SlamSettings& settings, const ScalePyramid& pyramid,
-                 LoopMatch& out);
+/// The features of `keyframe` that see a good map point (caller holds the map's lock).
+std::vector<int> features_with_points(const KeyFrame& keyframe);
+
+/// The descriptor matches verify_loop starts from, between the features `from_query` of the query
+/// keyframe and `from_candidate` of the candidate (features_with_points of each). Reads only the
+/// keyframes' immutable features: the caller need not hold the map's lock.
+std::vector<FeatureMatch> match_loop_features(const KeyFrame& query, const std::vector<int>& from_query,
+                                              const KeyFrame& candidate, const std::vector<int>& from_candidate);
+
+/// From `matches` (match_loop_features; those whose points went bad meanwhile are dropped): RANSAC
+/// over the 3-D pairs (SE(3)), the loop group's points projected with the estimate, and the query
+/// keyframe's pose optimised against them. True when at least kMinLoopInliers remain. Caller holds
+/// the map's lock.
+bool verify_loop(KeyFrame* query, KeyFrame* candidate, std::vector<FeatureMatch> matches,
+                 const SlamSettings& settings, const ScalePyramid& pyramid, LoopMatch& out);
 
 /// Applies a verified loop: corrects the query's covisible group, fuses the loop's points,
 /// optimises the essential graph with `candidate` fixed, moves every point with its reference and

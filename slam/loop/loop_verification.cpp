@@ -1,5 +1,6 @@
 // Loop closing step 2: geometric verification of a loop candidate (after ORB-SLAM2's
-// LoopClosing::ComputeSim3, with SE(3) for stereo); see loop_steps.hpp. The caller holds Map::mutex.
+// LoopClosing::ComputeSim3, with SE(3) for stereo); see loop_steps.hpp. The caller holds Map::mutex,
+// except for match_loop_features (descriptors only).
 #include <algorithm>
 #include <set>
 
@@ -20,17 +21,23 @@ MapPoint* good_point(const KeyFrame& keyframe, std::size_t feature) {
   return p != nullptr && !p->bad ? p : nullptr;
 }
 
-/// Features of the two keyframes that both have map points, matched by descriptor.
-std::vector<FeatureMatch> match_keyframe_points(const KeyFrame& a, const KeyFrame& b) {
-  const auto with_point = [](const KeyFrame& k) {
-    std::vector<int> out;
-    for (std::size_t i = 0; i < k.points.size(); ++i) {
-      if (good_point(k, i) != nullptr) out.push_back(static_cast<int>(i));
-    }
-    return out;
-  };
-  return match_by_descriptor(*a.features, with_point(a), *b.features, with_point(b), kHammingLow, kMatchRatio);
+}  // namespace
+
+std::vector<int> features_with_points(const KeyFrame& keyframe) {
+  std::vector<int> out;
+  for (std::size_t i = 0; i < keyframe.points.size(); ++i) {
+    if (good_point(keyframe, i) != nullptr) out.push_back(static_cast<int>(i));
+  }
+  return out;
 }
+
+std::vector<FeatureMatch> match_loop_features(const KeyFrame& query, const std::vector<int>& from_query,
+                                              const KeyFrame& candidate, const std::vector<int>& from_candidate) {
+  return match_by_descriptor(*query.features, from_query, *candidate.features, from_candidate, kHammingLow,
+                             kMatchRatio);
+}
+
+namespace {
 
 /// The points of `candidate` and all its covisibles (by weight), each once.
 std::vector<MapPoint*> loop_group_points(KeyFrame* candidate) {
@@ -90,13 +97,17 @@ int search_by_projection(const KeyFrame& query, const SE3& T_qw, const std::vect
 
 }  // namespace
 
-bool verify_loop(KeyFrame* query, KeyFrame* candidate, const SlamSettings& settings, const ScalePyramid& pyramid,
-                 LoopMatch& out) {
+bool verify_loop(KeyFrame* query, KeyFrame* candidate, std::vector<FeatureMatch> matches,
+                 const SlamSettings& settings, const ScalePyramid& pyramid, LoopMatch& out) {
   out = LoopMatch{};
   const StereoCamera& camera = settings.camera;
   const FrameFeatures& fq = *query->features;
   const FrameFeatures& fc = *candidate->features;
-  const std::vector<FeatureMatch> matches = match_keyframe_points(*query, *candidate);
+  // Matched without the lock: a point may have gone bad (culled, fused) since.
+  std::erase_if(matches, [&](const FeatureMatch& m) {
+    return good_point(*query, static_cast<std::size_t>(m.feature1)) == nullptr ||
+           good_point(*candidate, static_cast<std::size_t>(m.feature2)) == nullptr;
+  });
   out.matches = static_cast<int>(matches.size());
   if (out.matches < kMinMatches) {
     out.rejected = std::to_string(out.matches) + " descriptor matches (need " + std::to_string(kMinMatches) + ")";
