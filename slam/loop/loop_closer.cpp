@@ -159,7 +159,9 @@ void LoopCloser::process(KeyFrame* keyframe) {
   }
   if (searching) {
     std::lock_guard map_lock(map_.mutex);
-    if (!keyframe->bad) consistent = loop::consistent_candidates(loop::loop_candidates(map_, keyframe, scores), impl_->groups);
+    if (!keyframe->bad) {
+      consistent = loop::consistent_candidates(loop::loop_candidates(map_, keyframe, scores), impl_->groups);
+    }
   }
   times.detect_ns = elapsed_ns(start);
 

@@ -26,8 +26,8 @@
 // after it, never half-corrected; work done on copies meanwhile (local and global BA) is discarded
 // through Map::correction_generation. The database has its own mutex, always taken after
 // Map::mutex, never before; the database query and a candidate's descriptor matching hold only
-// it (they read the keyframes' immutable features), not Map::mutex. In the deterministic mode process_all() does everything in the
-// caller's thread, so the same keyframes give the same bytes.
+// it (they read the keyframes' immutable features), not Map::mutex. In the deterministic mode
+// process_all() does everything in the caller's thread, so the same keyframes give the same bytes.
 #pragma once
 
 #include <atomic>
