@@ -432,7 +432,7 @@ std::string slam_run_options_usage() {
          "  --mapping-threads N local mapping's threads for triangulation and local BA (default 0:\n"
          "                      half the hardware threads, at most 8, with 8 or more; else 1); same map\n"
          "  --ba-every N        realtime: local BA on at least every Nth keyframe even while more\n"
-         "                      wait (default 0: only when none waits, as ORB-SLAM2)\n"
+         "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"

@@ -19,7 +19,7 @@ struct SlamRunOptions {
   std::string device;
   int threads = 0;                ///< cpu backend worker threads, 0 = all
   int mapping_threads = 0;        ///< SlamSettings::mapping_threads (0: by the machine)
-  int ba_every = 0;               ///< SlamSettings::bundle_adjustment_every
+  int ba_every = 4;               ///< SlamSettings::bundle_adjustment_every
   slam::RunMode mode = slam::RunMode::realtime;
   std::string out = "portaslam-run";
   std::size_t first = 0;

@@ -56,9 +56,11 @@ struct SlamSettings {
   /// mapping_threads with 0 resolved for this machine.
   int resolved_mapping_threads() const;
   /// Realtime mode: local bundle adjustment runs, to the end, at least on every Nth keyframe even
-  /// while more keyframes wait. 0 = only when none waits (ORB-SLAM2: as fast as possible, mapping
-  /// then falls behind and skips it). The deterministic mode never has keyframes waiting.
-  int bundle_adjustment_every = 0;
+  /// while more keyframes wait. 0 = only when none waits (ORB-SLAM2: as fast as possible on a fast
+  /// GPU, mapping then falls behind and skips it almost always; 4 measured 1.5x the deterministic
+  /// run's ATE there against 3-4x with 0, docs/BENCHMARKS.md). At camera rate and in the
+  /// deterministic mode keyframes rarely or never wait, so N changes nothing there.
+  int bundle_adjustment_every = 4;
   static constexpr int kMaxBundleAdjustmentEvery = 1000;
 
   /// Loop closing (loop_closer.hpp): loops are detected, verified and corrected. false: local
