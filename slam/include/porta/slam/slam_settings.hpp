@@ -57,9 +57,9 @@ struct SlamSettings {
   int resolved_mapping_threads() const;
   /// Realtime mode: local bundle adjustment runs, to the end, at least on every Nth keyframe even
   /// while more keyframes wait. 0 = only when none waits (ORB-SLAM2: as fast as possible on a fast
-  /// GPU, mapping then falls behind and skips it almost always; 4 measured 1.5x the deterministic
-  /// run's ATE there against 3-4x with 0, docs/BENCHMARKS.md). At camera rate and in the
-  /// deterministic mode keyframes rarely or never wait, so N changes nothing there.
+  /// GPU, mapping then falls behind and skips it almost always; with 4 the median ATE of nine runs
+  /// was 1.5x the deterministic run's there, against 3.3x with 0, docs/BENCHMARKS.md). At camera
+  /// rate and in the deterministic mode keyframes rarely or never wait, so N changes nothing there.
   int bundle_adjustment_every = 4;
   static constexpr int kMaxBundleAdjustmentEvery = 1000;
 
