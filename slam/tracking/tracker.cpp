@@ -6,7 +6,6 @@
 #include "porta/slam/tracker.hpp"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <limits>
 #include <stdexcept>
@@ -315,25 +314,23 @@ void Tracker::Impl::update_local_keyframes(Frame& frame) {
     }
   }
   // Widen by a neighbour of each: a covisible keyframe, a child and the parent (as ORB-SLAM2).
-  auto add_first_new = [&](auto&& candidates) {
-    for (KeyFrame* k : candidates) {
-      if (k == nullptr || k->bad || k->tracking_local_mark == local_mark) continue;
-      local_keyframes.push_back(k);
-      k->tracking_local_mark = local_mark;
-      return;
-    }
+  // Adds `k` when it is a good keyframe not listed yet; says whether it did.
+  const auto add_if_new = [&](KeyFrame* k) {
+    if (k == nullptr || k->bad || k->tracking_local_mark == local_mark) return false;
+    local_keyframes.push_back(k);
+    k->tracking_local_mark = local_mark;
+    return true;
   };
   const std::size_t voted = local_keyframes.size();
   for (std::size_t k = 0; k < voted && local_keyframes.size() < kMaxLocalKeyframes; ++k) {
     KeyFrame* keyframe = local_keyframes[k];
-    add_first_new(keyframe->best_covisibles(kCovisiblesPerKeyframe));
-    for (const auto& [child, unused] : keyframe->children) {
-      if (!child->bad && child->tracking_local_mark != local_mark) {
-        add_first_new(std::array<KeyFrame*, 1>{child});
-        break;
-      }
+    for (KeyFrame* covisible : keyframe->best_covisibles(kCovisiblesPerKeyframe)) {
+      if (add_if_new(covisible)) break;
     }
-    add_first_new(std::array<KeyFrame*, 1>{keyframe->parent});
+    for (const auto& [child, unused] : keyframe->children) {
+      if (add_if_new(child)) break;
+    }
+    add_if_new(keyframe->parent);
   }
   if (most_shared != nullptr) {
     reference_keyframe = most_shared;
