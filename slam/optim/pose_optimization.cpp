@@ -67,52 +67,55 @@ Mat3 skew(const Vec3& v) {
   return m;
 }
 
-/// Levenberg-Marquardt over the active terms, from `x`; at most `max_iterations` steps. Stops when
-/// the relative cost decrease falls below 1e-6 or the step below 1e-10 (Ceres' default tolerances).
+/// The robust cost of the active terms at `params` and, summed in the same pass, the normal
+/// equations H (upper triangle, then mirrored) and g; false when a residual cannot be evaluated.
 /// The Jacobian is taken in the tangent space directly: for the left increment T <- exp(d) T of
 /// se3_manifold.hpp, d p / d [phi; rho] = [-[p]x  I], as the bundle adjustment's Schur solver does.
+bool evaluate(const ProjectionModel& model, const std::vector<Term>& terms, const std::vector<bool>& active,
+              bool robust, const PoseParams& params, double& cost, Matrix6& H, Vector6& g) {
+  const PoseAt pose(params);
+  cost = 0.0;
+  H.setZero();
+  g.setZero();
+  Vec3 p, r;
+  Mat3 dr_dp;
+  Eigen::Matrix<double, 3, 6> J;
+  for (std::size_t i = 0; i < terms.size(); ++i) {
+    if (!active[i]) continue;
+    if (!residual_at(model, terms[i], pose, p, r, &dr_dp)) return false;
+    const detail::HuberWeight huber = detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust);
+    cost += huber.cost;
+    const double w = huber.weight;
+    J.leftCols<3>().noalias() = -dr_dp * skew(p);
+    J.rightCols<3>() = dr_dp;
+    // H is symmetric: its upper triangle only (21 of 36 entries), the lower copied after the sum.
+    for (int a = 0; a < 6; ++a) {
+      const double wa0 = w * J(0, a), wa1 = w * J(1, a), wa2 = w * J(2, a);
+      for (int b = a; b < 6; ++b) H(a, b) += wa0 * J(0, b) + wa1 * J(1, b) + wa2 * J(2, b);
+      g[a] += wa0 * r[0] + wa1 * r[1] + wa2 * r[2];
+    }
+  }
+  H.triangularView<Eigen::StrictlyLower>() = H.transpose();
+  return true;
+}
+
+/// Levenberg-Marquardt over the active terms, from `x`; at most `max_iterations` steps. Stops when
+/// the relative cost decrease falls below 1e-6 or the step below 1e-10 (Ceres' default tolerances).
+/// A candidate's cost and its normal equations come from one pass (evaluate), so an accepted step
+/// costs one pass over the terms, not two; the result is the same, bit for bit, as computing them
+/// apart (the same sums in the same order).
 void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std::vector<Term>& terms,
                          const std::vector<bool>& active, bool robust, int max_iterations) {
   const Se3Manifold manifold;
-  const std::size_t n = terms.size();
-
-  // Total robust cost at `params`; false when a residual cannot be evaluated.
-  const auto total_cost = [&](const PoseParams& params, double& cost) {
-    const PoseAt pose(params);
-    cost = 0.0;
-    Vec3 p, r;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!active[i]) continue;
-      if (!residual_at(model, terms[i], pose, p, r, nullptr)) return false;
-      cost += detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust).cost;
-    }
-    return true;
-  };
-
   double cost = 0.0;
-  if (!total_cost(x, cost)) return;
+  Matrix6 H;
+  Vector6 g;
+  if (!evaluate(model, terms, active, robust, x, cost, H, g)) return;
   double lambda = 1e-4;
+  double candidate_cost = 0.0;
+  Matrix6 candidate_H;
+  Vector6 candidate_g;
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    Matrix6 H = Matrix6::Zero();
-    Vector6 g = Vector6::Zero();
-    const PoseAt pose(x);
-    Vec3 p, r;
-    Mat3 dr_dp;
-    Eigen::Matrix<double, 3, 6> J;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!active[i]) continue;
-      if (!residual_at(model, terms[i], pose, p, r, &dr_dp)) return;
-      const double w = detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust).weight;
-      J.leftCols<3>().noalias() = -dr_dp * skew(p);
-      J.rightCols<3>() = dr_dp;
-      // H is symmetric: its upper triangle only (21 of 36 entries), the lower copied after the sum.
-      for (int a = 0; a < 6; ++a) {
-        const double wa0 = w * J(0, a), wa1 = w * J(1, a), wa2 = w * J(2, a);
-        for (int b = a; b < 6; ++b) H(a, b) += wa0 * J(0, b) + wa1 * J(1, b) + wa2 * J(2, b);
-        g[a] += wa0 * r[0] + wa1 * r[1] + wa2 * r[2];
-      }
-    }
-    H.triangularView<Eigen::StrictlyLower>() = H.transpose();
     if (g.lpNorm<Eigen::Infinity>() <= 1e-10) return;
 
     // Damped steps until one lowers the cost (Marquardt's diagonal scaling).
@@ -124,11 +127,13 @@ void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std:
       if (!step.allFinite()) return;
       PoseParams candidate{};
       manifold.Plus(x.data(), step.data(), candidate.data());
-      double candidate_cost = 0.0;
-      if (total_cost(candidate, candidate_cost) && candidate_cost < cost) {
+      if (evaluate(model, terms, active, robust, candidate, candidate_cost, candidate_H, candidate_g) &&
+          candidate_cost < cost) {
         const double decrease = (cost - candidate_cost) / std::max(cost, 1e-300);
         x = candidate;
         cost = candidate_cost;
+        H = candidate_H;
+        g = candidate_g;
         lambda = std::max(lambda / 3.0, 1e-12);
         accepted = true;
         if (decrease < 1e-6 || step.norm() < 1e-10) return;
