@@ -60,6 +60,8 @@ def figures(summary, gpu_csv):
         "keyframes": summary["keyframes"],
         "median_ms": stages["frame"]["median"],
         "p95_ms": stages["frame"]["p95"],
+        "mean_ms": stages["frame"].get("mean"),
+        "input_wait_ms": (stages.get("input wait") or {}).get("mean"),
         "frontend_ms": stages["frontend"]["median"],
         "tracking_ms": stages["tracking"]["median"],
         "fps": throughput.get("frames_per_s"),
@@ -87,7 +89,7 @@ def fmt(value, digits=2):
 
 COLUMNS = [
     ("frames", "frames", 0), ("lost", "lost", 0), ("median ms/frame", "median_ms", 3), ("p95 ms", "p95_ms", 3),
-    ("frontend ms", "frontend_ms", 3), ("tracking ms", "tracking_ms", 3), ("frames/s", "fps", 1),
+    ("mean ms", "mean_ms", 3), ("input wait ms (mean)", "input_wait_ms", 3), ("frontend ms", "frontend_ms", 3), ("tracking ms", "tracking_ms", 3), ("frames/s", "fps", 1),
     ("host CPU s/frame", "cpu_s_per_frame", 4), ("peak RSS MiB", "peak_mib", 0), ("GPU busy %", "gpu_util", 0),
     ("GPU busy ms/frame", "gpu_ms_per_frame", 3), ("GPU memory MiB", "gpu_mib", 0), ("ATE RMSE m", "ate_m", 4),
 ]

@@ -21,6 +21,7 @@
 #include "process_memory.hpp"
 #include "porta/registry.hpp"
 #include "porta/slam/atomic_file.hpp"
+#include "porta/slam/elapsed.hpp"
 #include "porta/slam/evaluation.hpp"
 #include "porta/slam/settings_file.hpp"
 #include "porta/slam/system.hpp"
@@ -162,15 +163,26 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       paced ? 0 : std::clamp<std::size_t>(std::thread::hardware_concurrency() / 2, 1, 4);
   std::deque<std::future<slam::StereoPair>> reads;
   std::size_t next_request = options.first;  // the next pair to start reading
+  // How long the frames' loop waited for each pair (read on this thread when paced, else the wait
+  // for a read-ahead thread): what reading costs the frame rate, outside "frame".
+  std::vector<std::int64_t> input_wait_ns;
+  input_wait_ns.reserve(total);
   const auto read_next = [&]() -> slam::StereoPair {
-    if (read_ahead == 0) return dataset->load(next_request++);
+    const auto wait_start = std::chrono::steady_clock::now();
+    if (read_ahead == 0) {
+      slam::StereoPair pair = dataset->load(next_request++);
+      input_wait_ns.push_back(slam::elapsed_ns(wait_start));
+      return pair;
+    }
     while (reads.size() < read_ahead + 1 && next_request < end) {
       const std::size_t i = next_request++;
       reads.push_back(std::async(std::launch::async, [&dataset, i] { return dataset->load(i); }));
     }
     std::future<slam::StereoPair> read = std::move(reads.front());
     reads.pop_front();
-    return read.get();
+    slam::StereoPair pair = read.get();
+    input_wait_ns.push_back(slam::elapsed_ns(wait_start));
+    return pair;
   };
   double first_time_s = 0.0, last_time_s = 0.0;
   const auto submit_next = [&](std::size_t i) {
@@ -281,7 +293,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"track motion", quantiles(motion_ns)},       {"track local map", quantiles(track_local_ns)},
       {"keyframe", quantiles(keyframe_ns)},         {"local map", quantiles(local_map_ns)},
       {"triangulation", quantiles(triangulate_ns)}, {"fusion", quantiles(fuse_ns)},
-      {"BA", quantiles(ba_ns)},                     {"frame", quantiles(frame_ns)}};
+      {"BA", quantiles(ba_ns)},                     {"input wait", quantiles(input_wait_ns)},
+      {"frame", quantiles(frame_ns)}};
   summary.median_frame_ms = stages.back().second.median_ms;
   if (options.rate > 0.0 && summary.frames > 1) {
     // A frame is late when processing it took longer than the time to the next frame.
@@ -307,7 +320,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     std::printf("%-17s %s\n", name.c_str(), format_ms(q).c_str());
   }
   std::printf("(frontend includes stereo matching%s;\n tracking = map lock wait + track motion + track local map + keyframe;"
-              " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe)\n",
+              " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe;"
+              " input wait = the frames' loop waiting for the next pair from the reader, outside frame)\n",
               stereo_separated ? "" : " and is the host's share: the device works on the next pair while one is tracked",
               options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes" : "");
   if (options.rate > 0.0) {
