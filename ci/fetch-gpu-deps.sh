@@ -3,7 +3,7 @@
 # apt): the Debian 12 packages ci/gpu.sh needs beyond CUDA (the Vulkan loader and headers,
 # glslang, the OpenCL ICD loader, the GLVND libraries NVIDIA's Vulkan driver loads; Eigen, and
 # Ceres with its libraries for the SLAM back end of ci/gpu-slam.sh; Google Benchmark for its local BA
-# benchmark), the few real images of
+# benchmark; libdeflate, with which imageio/ reads gray PNG files three times as fast as libpng), the few real images of
 # ../shared/data the equivalence suite reads, and KITTI 00's ground-truth poses and times (the
 # path ci/gpu-slam.sh renders). Run it on a Debian 12 (amd64) machine with network access; then, on the GPU machine, run
 # `bash ci/gpu-carried.sh DEPS_DIR [OUT_DIR]`.
@@ -25,7 +25,7 @@ apt-get "${opts[@]}" update -qq
   libunwind8 libunwind-dev liblzma-dev libsuitesparse-dev libcholmod3 libspqr2 libcxsparse3 libsuitesparseconfig5 libamd2 libcamd2 \
   libccolamd2 libcolamd2 libmetis5 libbtf1 libklu1 libldl2 librbio2 libumfpack5 libsliplu1 libmongoose2 \
   libatlas3-base libgfortran5 \
-  libbenchmark-dev libbenchmark1debian)  # GLVND: NVIDIA's Vulkan ICD needs it; then Ceres (SLAM); Google Benchmark
+  libbenchmark-dev libbenchmark1debian libdeflate-dev libdeflate0)  # GLVND: NVIDIA's Vulkan ICD needs it; then Ceres (SLAM); Google Benchmark; libdeflate
 rm -rf "$lists"
 
 data="${PORTA_DATA_DIR:-../shared/data}"

@@ -20,7 +20,7 @@ sysroot="${PORTA_AARCH64_SYSROOT:-.cross-aarch64/sysroot}"
 # need at link and run time that the cross compiler's own arm64 libc/libstdc++ do not provide.
 # Ceres's closure is the one ci/fetch-gpu-deps.sh carries for amd64.
 packages=(
-  libpng-dev libpng16-16 zlib1g-dev zlib1g
+  libpng-dev libpng16-16 zlib1g-dev zlib1g libdeflate-dev libdeflate0
   libgtest-dev libgmock-dev
   libeigen3-dev
   libceres-dev libceres3 libgoogle-glog-dev libgoogle-glog0v6 libgflags-dev libgflags2.2

@@ -13,7 +13,7 @@ packages=(
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
   libopencv-features2d-dev libopencv-calib3d-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libpng-dev
+  libpng-dev libdeflate-dev
   python3-dev python3-venv python3-numpy python3-pytest pybind11-dev
   libvulkan-dev mesa-vulkan-drivers glslang-tools spirv-tools vulkan-tools
   opencl-headers ocl-icd-opencl-dev pocl-opencl-icd clinfo

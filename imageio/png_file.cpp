@@ -1,5 +1,7 @@
 #include "imageio/png_file.hpp"
 
+#include <sys/stat.h>
+
 #include <png.h>
 #include <unistd.h>
 
@@ -9,6 +11,8 @@
 #include <cstdio>
 #include <cstring>
 #include <vector>
+
+#include "imageio/png_gray8.hpp"
 
 namespace porta::io {
 
@@ -127,7 +131,36 @@ bool has_png_signature(const std::string& path) {
   return got == kSignatureBytes && png_sig_cmp(signature, 0, kSignatureBytes) == 0;
 }
 
-GrayPng read_png_gray(const std::string& path, int max_side) {
+namespace {
+
+// The fast reader's try (png_gray8.hpp) on an open file just past its signature: true with the
+// image when it took the file; false with the file back where it was, for libpng.
+bool read_gray8(std::FILE* file, const png_byte* signature, int max_side, Image& gray) {
+  struct stat status {};
+  if (fstat(fileno(file), &status) != 0 || status.st_size < static_cast<off_t>(detail::kGray8HeaderBytes)) return false;
+  const auto size = static_cast<std::uint64_t>(status.st_size);
+  thread_local std::vector<std::uint8_t> bytes;  // the file, kept per thread as png_gray8.cpp's buffers
+  if (bytes.capacity() > detail::kKeptBufferBytes) bytes = {};
+  bytes.resize(detail::kGray8HeaderBytes);
+  std::memcpy(bytes.data(), signature, kSignatureBytes);
+  bool taken = false;
+  if (std::fread(bytes.data() + kSignatureBytes, 1, bytes.size() - kSignatureBytes, file) ==
+          bytes.size() - kSignatureBytes &&
+      detail::gray8_worth_reading(bytes.data(), size, max_side)) {
+    bytes.resize(static_cast<std::size_t>(size));
+    const std::size_t rest = bytes.size() - detail::kGray8HeaderBytes;
+    taken = std::fread(bytes.data() + detail::kGray8HeaderBytes, 1, rest, file) == rest &&
+            detail::decode_gray8(bytes.data(), bytes.size(), max_side, gray);
+  }
+  if (!taken) {
+    std::clearerr(file);
+    if (std::fseek(file, static_cast<long>(kSignatureBytes), SEEK_SET) != 0)
+      throw PngError(PngError::Kind::unreadable, std::strerror(errno));
+  }
+  return taken;
+}
+
+GrayPng read_png(const std::string& path, int max_side, bool gray8_first) {
   Reader r;
   r.file = std::fopen(path.c_str(), "rb");
   if (!r.file) throw PngError(PngError::Kind::unreadable, std::strerror(errno));
@@ -136,6 +169,10 @@ GrayPng read_png_gray(const std::string& path, int max_side) {
   if (got == 0) throw PngError(PngError::Kind::not_png, "empty file, not a PNG");
   if (got < kSignatureBytes || png_sig_cmp(signature, 0, kSignatureBytes) != 0)
     throw PngError(PngError::Kind::not_png, "not a PNG file (no PNG signature)");
+  if (gray8_first && detail::have_gray8_decoder()) {
+    GrayPng fast;
+    if (read_gray8(r.file, signature, max_side, fast.gray)) return fast;
+  }
 
   r.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &r, on_error, on_warning);
   if (r.png) r.info = png_create_info_struct(r.png);
@@ -172,6 +209,14 @@ GrayPng read_png_gray(const std::string& path, int max_side) {
     }
   }
   return out;
+}
+
+}  // namespace
+
+GrayPng read_png_gray(const std::string& path, int max_side) { return read_png(path, max_side, true); }
+
+GrayPng detail::read_png_gray_with_libpng(const std::string& path, int max_side) {
+  return read_png(path, max_side, false);
 }
 
 namespace {

@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   const fs::path out(argv[1]);
   fs::remove_all(out);
 
-  // PNG: gray and colour images from our writer, one tiny and one with texture.
+  // PNG: gray and colour images from our writer: tiny ones, and a textured gray one.
   fs::create_directories(out / "png");
   std::vector<std::uint8_t> gray(32 * 24), rgb(16 * 8 * 3);
   for (std::size_t i = 0; i < gray.size(); ++i) gray[i] = static_cast<std::uint8_t>(i * 7);
@@ -52,6 +52,11 @@ int main(int argc, char** argv) {
   io::write_png_gray((out / "png" / "gray_32x24.png").string(), 32, 24, gray.data(), 32);
   io::write_png_gray((out / "png" / "gray_1x1.png").string(), 1, 1, gray.data(), 1, 9);
   io::write_png_rgb((out / "png" / "rgb_16x8.png").string(), 16, 8, rgb.data(), 16 * 3);
+  // Above 16 KiB of rows libpng writes a 32-KiB zlib window: the case the fast gray reader takes.
+  std::vector<std::uint8_t> textured(160 * 120);
+  for (std::size_t i = 0; i < textured.size(); ++i)
+    textured[i] = static_cast<std::uint8_t>(i % 160 + (i / 160) * 3 + ((i * 2654435761u) >> 27 & 15));
+  io::write_png_gray((out / "png" / "gray_160x120.png").string(), 160, 120, textured.data(), 160);
 
   // Settings: the shipped files and the smallest complete one.
   fs::create_directories(out / "settings");
