@@ -22,7 +22,7 @@
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
 # Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
 # runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BA_BENCH
-# (0: no local BA benchmark), PORTA_SLAM_RUN_ARGS (more `portaslam run` options for every run, e.g.
+# (0: no local BA or PNG reading benchmark), PORTA_SLAM_RUN_ARGS (more `portaslam run` options for every run, e.g.
 # "--mapping-threads 1" for a same-machine comparison), PORTA_SLAM_LOOP
 # (0: no street-loop determinism check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
@@ -200,6 +200,17 @@ if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
   fi
 fi
 
+# ---- 3c. Reading the images: imageio's reader against libpng alone (porta_png_bench) -------------
+if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
+  say "PNG reading benchmark on the rendered left images"
+  if cmake --build "$build_dir" --target porta_png_bench -j "${PORTA_JOBS:-$(nproc)}" >>"$out_dir/build.log" 2>&1; then
+    PORTA_PNG_BENCH_DIR="$seq/image_0" "$build_dir/bench/porta_png_bench" --benchmark_repetitions=5 \
+      --benchmark_report_aggregates_only=true >"$out_dir/png-bench.txt" 2>&1 || status=1
+  else
+    echo "porta_png_bench not built (Google Benchmark missing? see build.log)" >"$out_dir/png-bench.txt"
+  fi
+fi
+
 # ---- 4. Report -------------------------------------------------------------------------------------
 python3 bench/slam_report.py --results "$out_dir" --work "$work" --backends "$backends" >"$out_dir/report.md" ||
   { say "report FAILED"; status=1; }
@@ -210,6 +221,10 @@ fi
 if [ -f "$out_dir/ba-bench.txt" ]; then
   printf '\n### Local bundle adjustment on this host (porta_ba_bench, medians of 5)\n\n```\n%s\n```\n' \
     "$(grep -E '_median|not built' "$out_dir/ba-bench.txt" | sed 's/ \{2,\}/  /g')" >>"$out_dir/report.md"
+fi
+if [ -f "$out_dir/png-bench.txt" ]; then
+  printf '\n### Reading the rendered PNG images on this host (porta_png_bench, medians of 5)\n\n```\n%s\n```\n' \
+    "$(grep -E '_median|not built|ERROR' "$out_dir/png-bench.txt" | sed 's/ \{2,\}/  /g')" >>"$out_dir/report.md"
 fi
 cat "$out_dir/report.md"
 say "results in $out_dir (report.md, *.json, *.log, *.gpu.csv)"
