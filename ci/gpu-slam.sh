@@ -116,6 +116,7 @@ run_slam() {
   "$binary" run --dataset kitti "$seq" --out "$work/$name" --json "$out_dir/$name.json" --quiet \
     ${PORTA_SLAM_RUN_ARGS:-} "$@" >"$out_dir/$name.log" 2>&1
   local rc=$?
+  cp "$work/$name/frames.csv" "$out_dir/$name.frames.csv" 2>/dev/null  # per frame: inliers, stage times
   if [ $rc != 0 ]; then
     say "$name FAILED (exit $rc):"
     tail -5 "$out_dir/$name.log"

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cli_args.hpp"
+#include "frame_log.hpp"
 #include "loop_report.hpp"
 #include "map_report.hpp"
 #include "output_paths.hpp"
@@ -256,6 +257,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   slam::write_trajectory(kitti_path, trajectory, slam::TrajectoryFormat::kitti);
   slam::write_kitti_times((fs::path(options.out) / "trajectory_times.txt").string(), trajectory);
   slam::write_trajectory(keyframes_path, system.keyframe_trajectory(), slam::TrajectoryFormat::tum);
+  slam::write_file_atomically((fs::path(options.out) / "frames.csv").string(),
+                              frame_log_csv(options.first, system.frame_times(), system.results(), input_wait_ns));
   slam::MapCloud cloud;  // for the export and the top view: the map the counts describe
   {
     std::lock_guard<std::mutex> lock(system.map().mutex);
@@ -389,7 +392,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       std::printf("\nATE not computed: %s\n", e.what());
     }
   }
-  std::printf("\nwrote %s, %s (+ trajectory_times.txt), %s\n", tum_path.c_str(), kitti_path.c_str(),
+  std::printf("\nwrote %s, %s (+ trajectory_times.txt), %s, frames.csv\n", tum_path.c_str(), kitti_path.c_str(),
               keyframes_path.c_str());
   MapOutputOptions map_outputs;
   map_outputs.export_path = options.export_map;
@@ -450,7 +453,8 @@ std::string slam_run_options_usage() {
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
-         "                      trajectory_kitti.txt + trajectory_times.txt, keyframes_tum.txt, summary.json\n"
+         "                      trajectory_kitti.txt + trajectory_times.txt, keyframes_tum.txt, summary.json,\n"
+         "                      frames.csv (per frame: inliers, mapping queue, stage times in ms)\n"
          "  --first N           first frame (default 0)\n"
          "  --frames N          number of frames (default: all)\n"
          "  --levels N          pyramid levels (default 8)\n"

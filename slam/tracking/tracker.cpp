@@ -200,7 +200,9 @@ int Tracker::Impl::match_last_frame_from(Frame& frame, const Frame& last, const 
 
 bool Tracker::Impl::track_motion_model(Frame& frame, Frame& last, TrackingResult& result) {
   result.matches_motion = match_last_frame_from(frame, last, velocity * last.T_cw, kMotionWindowPx);
+  result.predicted_inliers = result.matches_motion;
   if (result.matches_motion < kConfidentMotionInliers) {
+    result.motion_hypotheses = true;
     // Few inliers: the motion changed at once (a turn that starts or ends, a jolt), and the
     // constant-velocity prediction, off by degrees, matched the wrong features (on repeated
     // façades, consistently wrong ones). Two more hypotheses: the last pose as the prediction (no
@@ -574,6 +576,9 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
 
   // 1-2: motion model, else the reference keyframe; lost: relocalisation.
   t.update_last_frame(last_frame_);
+  result.last_frame_points = static_cast<int>(
+      std::count_if(last_frame_.points.begin(), last_frame_.points.end(), [](const MapPoint* p) { return p != nullptr; }));
+  result.mapping_queue = static_cast<int>(t.mapper.queued_keyframes());
   frame.reference_keyframe = t.reference_keyframe;
   t.lost_reason.clear();
   // A camera relocalised from lost sees the map from where the map was not built (a covered lens

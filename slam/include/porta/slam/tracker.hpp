@@ -45,6 +45,10 @@ struct TrackingResult {
   bool used_motion_model = false;    ///< false: reference-keyframe fallback (or initialisation)
   bool relocalised = false;          ///< the pose came from relocalisation (the frame or the one before was lost, or EPnP against the reference keyframe beat a weak motion-model prediction)
   int matches_motion = 0;            ///< inliers after the first pose optimisation
+  int predicted_inliers = -1;        ///< the constant-velocity prediction's inliers (-1: not tried)
+  bool motion_hypotheses = false;    ///< the prediction was weak: the last pose and EPnP were tried too
+  int last_frame_points = 0;         ///< map points the last frame had (what the motion model can match)
+  int mapping_queue = 0;             ///< keyframes waiting for local mapping when the frame was tracked
   int matches_local_map = 0;         ///< inliers after local-map tracking
   std::string lost_reason;           ///< why tracking was lost, for the user
   std::int64_t map_wait_ns = 0;      ///< waiting for the map's lock (held by local mapping or loop closing)

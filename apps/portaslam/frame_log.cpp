@@ -1,0 +1,56 @@
+#include "frame_log.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+
+namespace porta::app {
+namespace {
+
+std::string ms(std::int64_t ns) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3f", static_cast<double>(ns) * 1e-6);
+  return text;
+}
+
+}  // namespace
+
+std::string frame_log_csv(std::size_t first_frame, const std::vector<slam::FrameTimes>& times,
+                          const std::vector<slam::TrackingResult>& results,
+                          const std::vector<std::int64_t>& input_wait_ns) {
+  std::string out =
+      "frame,state,keyframe,motion_model,motion_hypotheses,relocalised,last_frame_points,predicted_inliers,"
+      "motion_inliers,local_map_inliers,mapping_queue,input_wait_ms,frontend_ms,tracking_ms,map_wait_ms,"
+      "motion_ms,local_map_ms,keyframe_ms,frame_ms\n";
+  const std::size_t n = std::max({times.size(), results.size(), input_wait_ns.size()});
+  std::ostringstream line;
+  for (std::size_t i = 0; i < n; ++i) {
+    line << first_frame + i;
+    if (i < results.size()) {
+      const slam::TrackingResult& r = results[i];
+      line << ',' << slam::to_string(r.state) << ',' << int{r.keyframe_inserted} << ',' << int{r.used_motion_model}
+           << ',' << int{r.motion_hypotheses} << ',' << int{r.relocalised} << ',' << r.last_frame_points << ','
+           << r.predicted_inliers << ',' << r.matches_motion << ',' << r.matches_local_map << ',' << r.mapping_queue;
+    } else {
+      line << ",,,,,,,,,,";
+    }
+    line << ',' << (i < input_wait_ns.size() ? ms(input_wait_ns[i]) : "");
+    if (i < times.size()) {
+      line << ',' << ms(times[i].frontend_ns) << ',' << ms(times[i].tracking_ns);
+    } else {
+      line << ",,";
+    }
+    if (i < results.size()) {
+      const slam::TrackingResult& r = results[i];
+      line << ',' << ms(r.map_wait_ns) << ',' << ms(r.track_motion_ns) << ',' << ms(r.track_local_map_ns) << ','
+           << ms(r.keyframe_ns);
+    } else {
+      line << ",,,,";
+    }
+    line << ',' << (i < times.size() ? ms(times[i].total_ns) : "") << '\n';
+  }
+  out += line.str();
+  return out;
+}
+
+}  // namespace porta::app
