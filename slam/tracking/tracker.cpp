@@ -37,11 +37,7 @@ namespace {
 // ORB-SLAM2's constants for stereo tracking.
 constexpr double kMotionWindowPx = 7.0;     // motion-model search window at level 0 (doubled on retry)
 constexpr int kMotionMinMatches = 20;       // matches needed before optimising the motion-model pose
-constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose and EPnP (no prediction)...
-// ... when they are also fewer than this share of the last frame's map points. A prediction off by
-// degrees (street-loop's six turn transitions) keeps 1.8-6 % of them; a right one on a thin map
-// (mapping behind, as fast as possible on a GPU: 60-250 points) 18-57 %, median 45 % as always.
-constexpr double kWeakPredictionShare = 0.1;
+constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose and EPnP (no prediction)
 constexpr double kKeyframeWindowPx = 15.0;  // fallback: wide window, no bag-of-words vocabulary here
 constexpr int kKeyframeMinMatches = 15;
 constexpr int kMinPoseInliers = 10;
@@ -205,12 +201,11 @@ int Tracker::Impl::match_last_frame_from(Frame& frame, const Frame& last, const 
 bool Tracker::Impl::track_motion_model(Frame& frame, Frame& last, TrackingResult& result) {
   result.matches_motion = match_last_frame_from(frame, last, velocity * last.T_cw, kMotionWindowPx);
   result.predicted_inliers = result.matches_motion;
-  if (result.matches_motion < kConfidentMotionInliers &&
-      result.matches_motion < kWeakPredictionShare * result.last_frame_points) {
+  if (result.matches_motion < kConfidentMotionInliers) {
     result.motion_hypotheses = true;
-    // Few inliers, and few of the last frame's points: the motion changed at once (a turn that
-    // starts or ends, a jolt), and the constant-velocity prediction, off by degrees, matched the
-    // wrong features (on repeated façades, consistently wrong ones). Two more hypotheses: the last pose as the prediction (no
+    // Few inliers: the motion changed at once (a turn that starts or ends, a jolt), and the
+    // constant-velocity prediction, off by degrees, matched the wrong features (on repeated
+    // façades, consistently wrong ones). Two more hypotheses: the last pose as the prediction (no
     // motion) with the wide window, and no prediction at all, descriptor matching with EPnP
     // against the reference keyframe (relocalisation's test). The one with most inliers stays.
     // discard_outliers leaves no outlier flag set: pose and points are all a hypothesis is.

@@ -173,31 +173,6 @@ TEST(Tracking, AJoltOverARepeatedTextureIsNotTrackedAtTheWrongPose) {
               twins_in_view, kJolt, jolt.matches_motion, jolt.matches_local_map, worst_m, worst_deg);
 }
 
-// The other side of the jolt: a thin map (a sparse world here; as fast as possible on a GPU, a
-// mapper that lags behind) gives a right prediction under 50 inliers too, but the prediction still
-// matches its usual share of the last frame's points, so the costly hypotheses are not tried.
-TEST(Tracking, ARightPredictionOnAThinMapIsKeptWithoutTheHypotheses) {
-  const World w(13, 140);
-  SlamSettings settings = w.settings;
-  settings.min_init_stereo_points = 50;  // a thin world: ~120 points in the first view
-  Pipeline p(w, settings);
-  constexpr int kThinFrames = 45;  // the sparse world's last frames see too few points
-  p.run(w, kThinFrames, 13);
-  int weak = 0;
-  double worst_m = 0.0;
-  for (int k = 0; k < kThinFrames; ++k) {
-    const TrackingResult& r = p.results[static_cast<std::size_t>(k)];
-    ASSERT_EQ(r.state, TrackingState::ok) << "frame " << k << ": " << r.lost_reason;
-    EXPECT_FALSE(r.motion_hypotheses) << "frame " << k << ": " << r.predicted_inliers << " inliers of "
-                                      << r.last_frame_points << " points";
-    weak += r.predicted_inliers >= 0 && r.predicted_inliers < 50 ? 1 : 0;
-    worst_m = std::max(worst_m, translation_error_m(r.T_cw, w.T_cw[static_cast<std::size_t>(k)]));
-  }
-  EXPECT_GE(weak, 5) << "the world should be thin enough for predictions under 50 inliers";
-  EXPECT_LT(worst_m, 0.1);
-  std::printf("thin map: %d of %d predictions under 50 inliers, no hypotheses; worst %.4f m\n", weak, kThinFrames, worst_m);
-}
-
 TEST(Tracking, WaitsForEnoughStereoPointsBeforeInitialising) {
   const World w(11);
   SlamSettings settings = w.settings;
