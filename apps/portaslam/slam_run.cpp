@@ -79,6 +79,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.global_bundle_adjustment = options.global_ba;
   settings.mapping_threads = options.mapping_threads;
   settings.bundle_adjustment_every = options.ba_every;
+  settings.keyframe_queue_limit = options.keyframe_queue;
   settings.validate();
   return settings;
 }
@@ -269,12 +270,13 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   // Per-stage timing.
   std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, triangulate_ns, fuse_ns, ba_ns;
-  std::vector<std::int64_t> map_wait_ns, motion_ns, track_local_ns, keyframe_ns;
+  std::vector<std::int64_t> map_wait_ns, motion_ns, track_local_ns, keyframe_ns, mapping_wait_ns;
   const bool stereo_separated = system.frontend_in_flight() == 1;  // pipelined frames are not profiled
   for (const slam::FrameTimes& t : system.frame_times()) {
     frontend_ns.push_back(t.frontend_ns);
     if (stereo_separated) stereo_ns.push_back(t.stereo_ns);
     tracking_ns.push_back(t.tracking_ns);
+    mapping_wait_ns.push_back(t.mapping_wait_ns);
     frame_ns.push_back(t.total_ns);
   }
   for (const slam::TrackingResult& r : system.results()) {
@@ -297,6 +299,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"keyframe", quantiles(keyframe_ns)},         {"local map", quantiles(local_map_ns)},
       {"triangulation", quantiles(triangulate_ns)}, {"fusion", quantiles(fuse_ns)},
       {"BA", quantiles(ba_ns)},                     {"input wait", quantiles(input_wait_ns)},
+      {"mapping wait", quantiles(mapping_wait_ns)},
       {"frame", quantiles(frame_ns)}};
   summary.median_frame_ms = stages.back().second.median_ms;
   if (options.rate > 0.0 && summary.frames > 1) {
@@ -326,7 +329,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
               " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe;"
               " input wait = the frames' loop waiting for the next pair from the reader, outside frame)\n",
               stereo_separated ? "" : " and is the host's share: the device works on the next pair while one is tracked",
-              options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes" : "");
+              options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes"
+                                                            : " + mapping wait (--keyframe-queue)");
   if (options.rate > 0.0) {
     std::printf("frames that took longer than the frame interval at %.3gx: %zu of %zu\n", options.rate,
                 summary.late_frames, summary.frames);
@@ -448,6 +452,8 @@ std::string slam_run_options_usage() {
          "  --threads N         cpu backend worker threads (default: all)\n"
          "  --mapping-threads N local mapping's threads for triangulation and local BA (default 0:\n"
          "                      half the hardware threads, at most 8, with 8 or more; else 1); same map\n"
+         "  --keyframe-queue N  realtime: tracking waits before a frame while N keyframes wait for\n"
+         "                      local mapping (default 0: never, as ORB-SLAM2)\n"
          "  --ba-every N        realtime: local BA on at least every Nth keyframe even while more\n"
          "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
@@ -486,6 +492,8 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.threads = parse_threads(option, cursor.value(option));
   } else if (option == "--mapping-threads") {
     options.mapping_threads = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxMappingThreads);
+  } else if (option == "--keyframe-queue") {
+    options.keyframe_queue = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxKeyframeQueueLimit);
   } else if (option == "--ba-every") {
     options.ba_every = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentEvery);
   } else if (option == "--mode") {

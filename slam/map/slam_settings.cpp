@@ -41,6 +41,9 @@ void SlamSettings::validate() const {
   require(mapping_threads >= 0 && mapping_threads <= kMaxMappingThreads,
           "mapping_threads must be in [0, " + std::to_string(kMaxMappingThreads) + "] (0 = by the machine), got " +
               std::to_string(mapping_threads));
+  require(keyframe_queue_limit >= 0 && keyframe_queue_limit <= kMaxKeyframeQueueLimit,
+          "keyframe_queue_limit must be in [0, " + std::to_string(kMaxKeyframeQueueLimit) +
+              "] (0 = tracking never waits for mapping), got " + std::to_string(keyframe_queue_limit));
   require(bundle_adjustment_every >= 0 && bundle_adjustment_every <= kMaxBundleAdjustmentEvery,
           "bundle_adjustment_every must be in [0, " + std::to_string(kMaxBundleAdjustmentEvery) +
               "] (0 = only when no keyframe waits), got " + std::to_string(bundle_adjustment_every));

@@ -56,6 +56,11 @@ std::size_t LocalMapper::queued_keyframes() const {
   return queue_.size();
 }
 
+void LocalMapper::wait_while_queued(std::size_t limit) {
+  std::unique_lock lock(queue_mutex_);
+  dequeued_cv_.wait(lock, [&] { return queue_.size() < limit || stop_requested_ || !realtime_; });
+}
+
 void LocalMapper::interrupt_bundle_adjustment() { abort_ba_ = true; }
 
 KeyFrame* LocalMapper::pop_keyframe() {
@@ -91,6 +96,7 @@ void LocalMapper::stop() {
   }
   queue_cv_.notify_all();
   tracking_cv_.notify_all();
+  dequeued_cv_.notify_all();
   thread_.join();
   realtime_ = false;
 }
@@ -141,6 +147,7 @@ void LocalMapper::thread_main() {
       abort_ba_ = false;
       idle_ = false;  // under the queue lock: "nothing queued and idle" means all processed
     }
+    dequeued_cv_.notify_all();
     process(keyframe);
     std::lock_guard lock(queue_mutex_);
     idle_ = true;

@@ -98,6 +98,11 @@ TrackingResult System::track_next() {
   auto features = std::make_shared<const FrameFeatures>(
       FrameFeatures::from_frontend(stereo, frontend_->tables(), camera, settings_.min_disparity_px));
 
+  if (mode_ == RunMode::realtime && settings_.keyframe_queue_limit > 0) {
+    const auto wait_start = std::chrono::steady_clock::now();
+    mapper_->wait_while_queued(static_cast<std::size_t>(settings_.keyframe_queue_limit));
+    times.mapping_wait_ns = elapsed_ns(wait_start);
+  }
   const auto track_start = std::chrono::steady_clock::now();
   TrackingResult result = tracker_->track(static_cast<std::uint64_t>(records_.size()), pending.time_s, features);
   times.tracking_ns = elapsed_ns(track_start);

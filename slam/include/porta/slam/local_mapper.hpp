@@ -59,6 +59,9 @@ class LocalMapper {
   /// True when the mapper is idle and accepts keyframes (ORB-SLAM2's AcceptKeyFrames).
   bool accepts_keyframes() const;
   std::size_t queued_keyframes() const;
+  /// Blocks while `limit` or more keyframes are queued (realtime mode; returns at once when the
+  /// thread is not running or is stopping).
+  void wait_while_queued(std::size_t limit);
   /// Asks a running bundle adjustment to stop at its next iteration.
   void interrupt_bundle_adjustment();
 
@@ -105,6 +108,7 @@ class LocalMapper {
   Map& map_;
   mutable std::mutex queue_mutex_;
   std::condition_variable queue_cv_;
+  std::condition_variable dequeued_cv_;  ///< a keyframe left the queue (wait_while_queued)
   std::deque<KeyFrame*> queue_;
   std::atomic<bool> idle_{true};
   std::atomic<bool> stop_requested_{false};

@@ -62,6 +62,12 @@ struct SlamSettings {
   /// rate and in the deterministic mode keyframes rarely or never wait, so N changes nothing there.
   int bundle_adjustment_every = 4;
   static constexpr int kMaxBundleAdjustmentEvery = 1000;
+  /// Realtime mode: before a frame is tracked, tracking waits while this many keyframes (or more)
+  /// wait for local mapping, so that it never runs further ahead of the map. 0 = it never waits
+  /// (ORB-SLAM2: with 3 queued it makes no keyframe, and as fast as possible on a fast GPU the map
+  /// it tracks against then thins out). At camera rate mapping keeps up and the wait never comes.
+  int keyframe_queue_limit = 0;
+  static constexpr int kMaxKeyframeQueueLimit = 100;
 
   /// Loop closing (loop_closer.hpp): loops are detected, verified and corrected. false: local
   /// mapping only (the place-recognition database is still kept, for relocalisation).

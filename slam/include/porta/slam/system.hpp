@@ -27,6 +27,9 @@ struct FrameTimes {
   std::int64_t frontend_ns = 0;
   std::int64_t stereo_ns = 0;    ///< stereo matching (inside the frontend; separated only when not pipelined)
   std::int64_t tracking_ns = 0;
+  /// Realtime mode with SlamSettings::keyframe_queue_limit: waiting for local mapping to take a
+  /// keyframe before tracking (inside total_ns).
+  std::int64_t mapping_wait_ns = 0;
   std::int64_t total_ns = 0;     ///< frontend_ns + tracking (+ deterministic mapping): the frame's host time
 };
 
