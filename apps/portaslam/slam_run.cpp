@@ -453,7 +453,7 @@ std::string slam_run_options_usage() {
          "  --mapping-threads N local mapping's threads for triangulation and local BA (default 0:\n"
          "                      half the hardware threads, at most 8, with 8 or more; else 1); same map\n"
          "  --keyframe-queue N  realtime: tracking waits before a frame while N keyframes wait for\n"
-         "                      local mapping (default 0: never, as ORB-SLAM2)\n"
+         "                      local mapping (default 2; 0: never, as ORB-SLAM2)\n"
          "  --ba-every N        realtime: local BA on at least every Nth keyframe even while more\n"
          "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"

@@ -258,6 +258,17 @@ TEST(SlamSettings, BundleAdjustmentEveryIsBounded) {
   EXPECT_NO_THROW(settings.validate());
 }
 
+TEST(SlamSettings, KeyframeQueueLimitIsBounded) {
+  SlamSettings settings = test_settings();
+  EXPECT_EQ(settings.keyframe_queue_limit, 2) << "the default";
+  settings.keyframe_queue_limit = -1;
+  EXPECT_THROW(settings.validate(), std::invalid_argument);
+  settings.keyframe_queue_limit = SlamSettings::kMaxKeyframeQueueLimit + 1;
+  EXPECT_THROW(settings.validate(), std::invalid_argument);
+  settings.keyframe_queue_limit = 0;
+  EXPECT_NO_THROW(settings.validate());
+}
+
 /// Waits until the mapping thread has processed everything queued (queue first, then idle: the
 /// thread clears idle under the queue lock when it takes a keyframe).
 void wait_until_processed(const LocalMapper& mapper) {
@@ -301,6 +312,31 @@ TEST(Mapping, StopProcessesEveryQueuedKeyframe) {
   EXPECT_TRUE(mapper.accepts_keyframes());
   std::lock_guard lock(map.mutex);
   EXPECT_GT(map.num_points(), 0u);
+}
+
+// Tracking's wait for mapping (SlamSettings::keyframe_queue_limit): it returns once the thread
+// has taken keyframes off the queue until fewer than the limit wait, and at once without a thread.
+TEST(Mapping, WaitWhileQueuedReturnsOnceTheMapperTakesKeyframes) {
+  const SyntheticScene scene{SceneSpec{}};
+  ASSERT_GE(scene.true_T_cw.size(), 4u);
+  Map map;
+  LocalMapper mapper(test_settings(), map);
+  TrackingStandIn tracking(scene, map, mapper);
+  tracking.insert(0, scene.true_T_cw[0]);
+  mapper.wait_while_queued(1);  // no thread: nothing would ever dequeue, so no wait
+  EXPECT_EQ(mapper.queued_keyframes(), 1u);
+
+  mapper.start();
+  for (std::size_t k = 1; k < 4; ++k) tracking.insert(k, scene.true_T_cw[k]);
+  std::size_t queued_at_return = 99;
+  std::thread waiter([&] {
+    mapper.wait_while_queued(1);
+    queued_at_return = mapper.queued_keyframes();  // nothing is inserted meanwhile: it only shrinks
+  });
+  waiter.join();
+  EXPECT_EQ(queued_at_return, 0u) << "returned while keyframes still waited";
+  mapper.stop();
+  EXPECT_EQ(mapper.times().size(), 4u);
 }
 
 TEST(Mapping, RealtimeMapperPausesWhileAFrameIsTrackedThenFinishes) {

@@ -64,9 +64,10 @@ struct SlamSettings {
   static constexpr int kMaxBundleAdjustmentEvery = 1000;
   /// Realtime mode: before a frame is tracked, tracking waits while this many keyframes (or more)
   /// wait for local mapping, so that it never runs further ahead of the map. 0 = it never waits
-  /// (ORB-SLAM2: with 3 queued it makes no keyframe, and as fast as possible on a fast GPU the map
-  /// it tracks against then thins out). At camera rate mapping keeps up and the wait never comes.
-  int keyframe_queue_limit = 0;
+  /// (ORB-SLAM2: with 3 queued it makes no keyframe, and as fast as possible on an H200 the map it
+  /// tracked against thinned out until tracking was lost, in every run of one call; with 2, none
+  /// lost, the same frame rate; docs/BENCHMARKS.md). At camera rate mapping keeps up: no wait.
+  int keyframe_queue_limit = 2;
   static constexpr int kMaxKeyframeQueueLimit = 100;
 
   /// Loop closing (loop_closer.hpp): loops are detected, verified and corrected. false: local
