@@ -45,32 +45,33 @@ struct PoseAt {
   explicit PoseAt(const PoseParams& x) : R(pose_rotation(x.data())), t(x[4], x[5], x[6]) {}
 };
 
-/// Residual of `term` at the pose (3 rows; the third is 0 for a mono term), its point in the camera
-/// frame, and, with `dr_dp`, the residual's derivative by that point (third row 0 for mono).
-bool residual_at(const ProjectionModel& m, const Term& term, const PoseAt& pose, Vec3& p, Vec3& r,
-                 Mat3* dr_dp) {
+/// Residual of `term` at the pose (3 rows; the third is 0 for a mono term) and its point in the
+/// camera frame.
+bool residual_at(const ProjectionModel& m, const Term& term, const PoseAt& pose, Vec3& p, Vec3& r) {
   p = pose.R * term.X + pose.t;
-  if (term.stereo) return camera_residual<3>(m, term.observation, term.s, p, r.data(), dr_dp);
-  Eigen::Matrix<double, 2, 3> d2;
-  if (!camera_residual<2>(m, term.observation, term.s, p, r.data(), dr_dp != nullptr ? &d2 : nullptr)) return false;
+  if (term.stereo) return camera_residual<3>(m, term.observation, term.s, p, r.data(), nullptr);
+  if (!camera_residual<2>(m, term.observation, term.s, p, r.data(), nullptr)) return false;
   r[2] = 0.0;
-  if (dr_dp != nullptr) {
-    dr_dp->topRows<2>() = d2;
-    dr_dp->row(2).setZero();
-  }
   return true;
 }
 
-Mat3 skew(const Vec3& v) {
-  Mat3 m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
+/// Adds row J = [p x d | d] of the Jacobian, weighted by w, to the normal equations (upper triangle
+/// of H) with its residual r. d is a row of dr/dp; -d [p]x = (p x d)^T is the rotation part.
+inline void add_row(const Vec3& p, double d0, double d1, double d2, double r, double w, Matrix6& H, Vector6& g) {
+  const double J[6] = {p.y() * d2 - p.z() * d1, p.z() * d0 - p.x() * d2, p.x() * d1 - p.y() * d0, d0, d1, d2};
+  for (int a = 0; a < 6; ++a) {
+    const double wa = w * J[a];
+    for (int b = a; b < 6; ++b) H(a, b) += wa * J[b];
+    g[a] += wa * r;
+  }
 }
 
 /// The robust cost of the active terms at `params` and, summed in the same pass, the normal
 /// equations H (upper triangle, then mirrored) and g; false when a residual cannot be evaluated.
 /// The Jacobian is taken in the tangent space directly: for the left increment T <- exp(d) T of
-/// se3_manifold.hpp, d p / d [phi; rho] = [-[p]x  I], as the bundle adjustment's Schur solver does.
+/// se3_manifold.hpp, d p / d [phi; rho] = [-[p]x  I], as the bundle adjustment's Schur solver does;
+/// dr/dp has four zeros (camera_residual), so each row is built from its three entries, and a
+/// monocular term has two rows, not three.
 bool evaluate(const ProjectionModel& model, const std::vector<Term>& terms, const std::vector<bool>& active,
               bool robust, const PoseParams& params, double& cost, Matrix6& H, Vector6& g) {
   const PoseAt pose(params);
@@ -78,22 +79,18 @@ bool evaluate(const ProjectionModel& model, const std::vector<Term>& terms, cons
   H.setZero();
   g.setZero();
   Vec3 p, r;
-  Mat3 dr_dp;
-  Eigen::Matrix<double, 3, 6> J;
   for (std::size_t i = 0; i < terms.size(); ++i) {
     if (!active[i]) continue;
-    if (!residual_at(model, terms[i], pose, p, r, &dr_dp)) return false;
-    const detail::HuberWeight huber = detail::huber_weight(r.squaredNorm(), terms[i].delta2, robust);
+    const Term& term = terms[i];
+    if (!residual_at(model, term, pose, p, r)) return false;
+    const detail::HuberWeight huber = detail::huber_weight(r.squaredNorm(), term.delta2, robust);
     cost += huber.cost;
-    const double w = huber.weight;
-    J.leftCols<3>().noalias() = -dr_dp * skew(p);
-    J.rightCols<3>() = dr_dp;
-    // H is symmetric: its upper triangle only (21 of 36 entries), the lower copied after the sum.
-    for (int a = 0; a < 6; ++a) {
-      const double wa0 = w * J(0, a), wa1 = w * J(1, a), wa2 = w * J(2, a);
-      for (int b = a; b < 6; ++b) H(a, b) += wa0 * J(0, b) + wa1 * J(1, b) + wa2 * J(2, b);
-      g[a] += wa0 * r[0] + wa1 * r[1] + wa2 * r[2];
-    }
+    const double w = huber.weight, s = term.s;
+    const double inv_z = 1.0 / p.z(), inv_z2 = inv_z * inv_z;
+    const double du = -s * model.fx * inv_z;  // camera_residual's dr/dp entries
+    add_row(p, du, 0.0, s * model.fx * p.x() * inv_z2, r[0], w, H, g);
+    add_row(p, 0.0, -s * model.fy * inv_z, s * model.fy * p.y() * inv_z2, r[1], w, H, g);
+    if (term.stereo) add_row(p, du, 0.0, -s * (model.bf - model.fx * p.x()) * inv_z2, r[2], w, H, g);
   }
   H.triangularView<Eigen::StrictlyLower>() = H.transpose();
   return true;
@@ -192,12 +189,24 @@ PoseOptimizationResult optimize_pose(const StereoCamera& camera, const SE3& T_cw
   }
   result.num_inliers = static_cast<int>(std::count(inlier.begin(), inlier.end(), true));
 
+  std::vector<bool> solved_with;  // the inliers the last solved round started from
+  bool solved_robust = false;
   for (int round = 0; round < options.rounds; ++round) {
-    if (options.restart_each_round) x = initial;
     const bool robust = round < options.robust_rounds;
+    // From the same start, with the same terms and loss, the round before's result again: the
+    // pose and the inliers stay as they are (the usual case once the inliers have settled).
+    if (options.restart_each_round && options.skip_repeated_rounds && result.rounds_solved > 0 &&
+        robust == solved_robust && inlier == solved_with) {
+      ++result.rounds_run;
+      continue;
+    }
+    if (options.restart_each_round) x = initial;
     if (std::count(inlier.begin(), inlier.end(), true) < 3) break;
+    solved_with = inlier;
+    solved_robust = robust;
     levenberg_marquardt(model, x, terms, inlier, robust, options.iterations_per_round);
     ++result.rounds_run;
+    ++result.rounds_solved;
     result.optimized = true;
 
     // Re-classify every observation, the excluded ones too, at the new pose.
@@ -205,7 +214,7 @@ PoseOptimizationResult optimize_pose(const StereoCamera& camera, const SE3& T_cw
     const PoseAt pose(x);
     Vec3 p, r;
     for (std::size_t i = 0; i < n; ++i) {
-      const bool evaluated = residual_at(model, terms[i], pose, p, r, nullptr);
+      const bool evaluated = residual_at(model, terms[i], pose, p, r);
       inlier[i] = evaluated && p.z() > 0.0 && r.squaredNorm() <= terms[i].delta2;
       inliers += inlier[i] ? 1 : 0;
     }

@@ -97,7 +97,6 @@ struct Tracker::Impl {
   bool relocalise(Frame& frame, TrackingResult& result);
   void update_last_frame(Frame& last) const;
   void update_local_keyframes(Frame& frame);
-  void update_local_points();
   int search_local_points(Frame& frame);
   bool need_new_keyframe(const Frame& frame) const;
   KeyFrame* create_keyframe(Frame& frame);
@@ -125,7 +124,10 @@ struct Tracker::Impl {
   SE3 T_last_ref = SE3::Identity();  // last frame relative to its reference keyframe
   int local_map_inliers = 0;
   std::vector<KeyFrame*> local_keyframes;
-  std::vector<MapPoint*> local_points;
+  // search_local_points' buffers, kept across frames.
+  std::vector<tracking::ProjectedPoint> projected;
+  std::vector<ProjectionQuery> queries;
+  std::vector<Descriptor> query_descriptors;
   std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
   std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
   std::string lost_reason;
@@ -340,20 +342,6 @@ void Tracker::Impl::update_local_keyframes(Frame& frame) {
   }
 }
 
-void Tracker::Impl::update_local_points() {
-  // Each point once, in the order first met (a mark per build instead of a hash set: this runs for
-  // every frame over tens of thousands of keyframe features).
-  local_points.clear();
-  const std::uint64_t mark = ++local_points_mark;
-  for (const KeyFrame* keyframe : local_keyframes) {
-    for (MapPoint* point : keyframe->points) {
-      if (point == nullptr || point->bad || point->tracking_local_mark == mark) continue;
-      point->tracking_local_mark = mark;
-      local_points.push_back(point);
-    }
-  }
-}
-
 int Tracker::Impl::search_local_points(Frame& frame) {
   const std::uint64_t mark = ++frame_points_mark;
   for (MapPoint* point : frame.points) {
@@ -361,27 +349,32 @@ int Tracker::Impl::search_local_points(Frame& frame) {
     ++point->visible;
     point->tracking_frame_mark = mark;
   }
+  // The local points: each point of the local keyframes once, in the order first met (a mark per
+  // build instead of a hash set), projected as it is met (one pass over tens of thousands of
+  // keyframe features; a list first and the projection after touched every point twice).
+  const std::uint64_t local_mark = ++local_points_mark;
   const Eigen::Vector3d center = frame.center();
-  std::vector<tracking::ProjectedPoint> projected;
-  for (MapPoint* point : local_points) {
-    if (point->tracking_frame_mark == mark) continue;  // matched already
-    tracking::ProjectedPoint p;
-    if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
-    ++point->visible;
-    projected.push_back(p);
+  projected.clear();
+  for (const KeyFrame* keyframe : local_keyframes) {
+    for (MapPoint* point : keyframe->points) {
+      if (point == nullptr || point->bad || point->tracking_local_mark == local_mark) continue;
+      point->tracking_local_mark = local_mark;
+      if (point->tracking_frame_mark == mark) continue;  // matched already
+      tracking::ProjectedPoint p;
+      if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
+      ++point->visible;
+      projected.push_back(p);
+    }
   }
   if (projected.empty()) return 0;
-  std::vector<ProjectionQuery> queries;
-  std::vector<Descriptor> descriptors;
-  tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, descriptors);
+  tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, query_descriptors);
   matcher.set_frame(kernel_keypoints(*frame.features, scales_q16), frame.features->descriptors);
-  const std::vector<ProjectionResult> results = matcher.match(queries, descriptors);
+  const std::vector<ProjectionResult> results = matcher.match(queries, query_descriptors);
   return tracking::accept_local_matches(frame, projected, queries, results);
 }
 
 bool Tracker::Impl::track_local_map(Frame& frame, TrackingResult& result) {
   update_local_keyframes(frame);
-  update_local_points();
   search_local_points(frame);
   tracking::optimize_frame_pose(frame, geometry, stereo_depth_limit);
   int inliers = 0;

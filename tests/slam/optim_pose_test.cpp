@@ -87,6 +87,29 @@ Frame synthetic_frame(const StereoCamera& cam, const SE3& T_cw, int count, doubl
   return frame;
 }
 
+// A round whose inliers and loss equal those the round before was solved with is not solved again
+// (PoseOptimizationOptions::skip_repeated_rounds): the same pose and inliers, bit for bit.
+TEST(OptimPoseOnly, RepeatedRoundsAreSkippedWithTheSameResult) {
+  const StereoCamera cam = test_camera();
+  const SE3 truth = true_pose();
+  int skipped = 0;
+  for (const unsigned seed : {7u, 8u, 9u, 10u}) {
+    const Frame frame = synthetic_frame(cam, truth, 200, seed == 10u ? 0.0 : 0.15, seed);
+    const SE3 initial = perturbed(truth, 0.05, 1.0);
+    PoseOptimizationOptions every;
+    every.skip_repeated_rounds = false;
+    const PoseOptimizationResult all = optimize_pose(cam, initial, frame.observations, every);
+    const PoseOptimizationResult fewer = optimize_pose(cam, initial, frame.observations);
+    EXPECT_EQ(all.rounds_solved, all.rounds_run);
+    EXPECT_EQ(fewer.rounds_run, all.rounds_run);
+    EXPECT_EQ(std::memcmp(all.T_cw.data(), fewer.T_cw.data(), sizeof(double) * 16), 0) << "seed " << seed;
+    EXPECT_EQ(all.inlier, fewer.inlier);
+    EXPECT_EQ(all.num_inliers, fewer.num_inliers);
+    skipped += fewer.rounds_run - fewer.rounds_solved;
+  }
+  EXPECT_GT(skipped, 0) << "no round was a repeat: the case is not exercised";
+}
+
 TEST(OptimPoseOnly, RecoversPerturbedPoseAndSeparatesOutliers) {
   const StereoCamera cam = test_camera();
   const SE3 truth = true_pose();

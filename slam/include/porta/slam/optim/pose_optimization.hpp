@@ -38,13 +38,18 @@ struct PoseOptimizationOptions {
   double chi2_stereo = kChi2Stereo95;
   int min_inliers_to_continue = 10;  ///< stop after a round that leaves fewer inliers (ORB-SLAM2: 10)
   bool restart_each_round = true;    ///< start every round from the initial pose, as ORB-SLAM2
+  /// With restart_each_round: a round whose inliers and loss are those the round before was solved
+  /// with would give that round's pose again, bit for bit, so it is not solved again. false solves
+  /// every round (the same result; for tests).
+  bool skip_repeated_rounds = true;
 };
 
 struct PoseOptimizationResult {
   SE3 T_cw = SE3::Identity();  ///< optimised pose (the initial one when not optimised)
   std::vector<bool> inlier;    ///< per observation, after the last round
   int num_inliers = 0;
-  int rounds_run = 0;
+  int rounds_run = 0;     ///< rounds completed, repeated ones included
+  int rounds_solved = 0;  ///< of them, those solved (Levenberg-Marquardt run)
   bool optimized = false;  ///< false when there were fewer than 3 observations
 };
 
