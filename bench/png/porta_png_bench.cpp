@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
@@ -24,8 +25,14 @@ const std::vector<std::string>& files() {
   static const std::vector<std::string> list = [] {
     std::vector<std::string> out;
     if (const char* dir = std::getenv("PORTA_PNG_BENCH_DIR")) {
-      for (const auto& entry : fs::directory_iterator(dir))
-        if (entry.path().extension() == ".png") out.push_back(entry.path().string());
+      std::error_code ec;
+      for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+        if (it->path().extension() == ".png") out.push_back(it->path().string());
+      if (ec || out.empty()) {
+        std::fprintf(stderr, "porta_png_bench: PORTA_PNG_BENCH_DIR '%s': %s\n", dir,
+                     ec ? ec.message().c_str() : "no .png files there");
+        std::exit(2);
+      }
       std::sort(out.begin(), out.end());
       if (out.size() > 100) out.resize(100);
     }
