@@ -10,7 +10,8 @@
 #
 # Results in OUT_DIR: report.md (machine, the frame times, the per-kernel tables), frames-*.txt and
 # .json (portaslam bench without profiling), kernels-*.txt and .json (with it), backends.txt,
-# machine.txt, build.log. Exit status: 0 when the build and every bench run succeeded.
+# machine.txt, build.log, cl-enqueue.txt (porta_cl_enqueue_bench: the host's cost of OpenCL calls,
+# when opencl is among the backends). Exit status: 0 when the build and every bench run succeeded.
 # The frame times are taken one frame at a time and with 4 frames in flight, with the input copied
 # by the host and in pinned input images (PORTA_PROFILE_BENCH_ARGS, default "--in-flight 1,4 --input
 # copy,pinned"), and once more for vulkan and opencl with one queue (PORTA_VULKAN_QUEUES=1,
@@ -75,6 +76,18 @@ for cell in "${cells[@]}"; do
   fi
 done
 
+# The host's cost of OpenCL calls on this device (porta_cl_enqueue_bench): what bounds opencl with
+# frames in flight.
+if available opencl && [[ ",$all," == *",opencl,"* ]]; then
+  say "OpenCL host costs (porta_cl_enqueue_bench)"
+  if cmake --build "$build_dir" --target porta_cl_enqueue_bench -j "${PORTA_JOBS:-$(nproc)}" >>"$out_dir/build.log" 2>&1; then
+    "$build_dir/bench/porta_cl_enqueue_bench" --benchmark_repetitions=3 --benchmark_report_aggregates_only=true \
+      >"$out_dir/cl-enqueue.txt" 2>&1 || status=1
+  else
+    echo "porta_cl_enqueue_bench not built (Google Benchmark missing? see build.log)" >"$out_dir/cl-enqueue.txt"
+  fi
+fi
+
 {
   echo "# Per-kernel profile on $(hostname)"
   echo
@@ -93,6 +106,11 @@ done
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name.txt" 2>/dev/null
     echo '```'
   done
+  if [ -f "$out_dir/cl-enqueue.txt" ]; then
+    printf '\n## OpenCL host costs (porta_cl_enqueue_bench, medians of 3)\n\n```\n'
+    grep -E "porta_cl|_median|not built" "$out_dir/cl-enqueue.txt"
+    echo '```'
+  fi
 } >"$out_dir/report.md"
 say "results in $out_dir (report.md); exit status $status"
 exit "$status"

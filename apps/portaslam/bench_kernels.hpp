@@ -18,10 +18,10 @@ struct KernelProfileRow {
 };
 
 /// One table per row: kernel, dispatches per frame, device µs per frame, share of the row's
-/// device total; the kernels in first-dispatch order.
+/// device total, host µs per frame; the kernels in first-dispatch order.
 void print_kernel_profiles(const std::vector<KernelProfileRow>& rows, std::FILE* out);
 
-/// `[{"kernel": ..., "dispatches_per_frame": ..., "device_us_per_frame": ...}, ...]`.
+/// `[{"kernel": ..., "dispatches_per_frame": ..., "device_us_per_frame": ..., "host_us_per_frame": ...}, ...]`.
 std::string kernel_profile_json(const std::vector<KernelTime>& kernels, std::size_t frames);
 
 }  // namespace porta::app

@@ -59,7 +59,13 @@ Range Range::tiles(std::size_t tiles) {
   return {{tiles * kTileW, kTileH}, {kTileW, kTileH}, 2};
 }
 
-void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& range) {
+void OpenClBackend::note_command(const char* name, cl_event event, Clock::time_point start) {
+  if (!profile_kernels_) return;
+  profile_.add_host(name, std::chrono::duration<double, std::milli>(Clock::now() - start).count(), event == nullptr);
+  if (event != nullptr) timed_.push_back({current_, name, event});
+}
+
+void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& range, Clock::time_point start) {
   std::size_t global[2] = {range.global[0], range.global[1]};
   if (global[0] == 0 || (range.dims == 2 && global[1] == 0)) return;
   Range r = range;
@@ -80,9 +86,9 @@ void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& r
   std::size_t local[2] = {r.local[0], r.local[1] ? r.local[1] : 1};
   cl_event event = nullptr;
   check(clEnqueueNDRangeKernel(queue(), k, static_cast<cl_uint>(r.dims), nullptr, global,
-                               has_local ? local : nullptr, 0, nullptr, profile_kernels_ ? &event : nullptr),
+                               has_local ? local : nullptr, 0, nullptr, event_slot(event)),
         "clEnqueueNDRangeKernel", kernel_name);
-  if (event != nullptr) timed_.push_back({current_, kernel_name, event});
+  note_command(kernel_name, event, start);
 }
 
 void OpenClBackend::read_timed_events(int queue) {
@@ -122,12 +128,14 @@ void OpenClBackend::use_queue(int queue) {
 void OpenClBackend::queue_wait(int other) {
   check_queue_index(other, "queue_wait");
   if (other == current_) return;  // in order already
+  const Clock::time_point start = profile_kernels_ ? Clock::now() : Clock::time_point{};
   cl_event marker = nullptr;
   check(clEnqueueMarkerWithWaitList(queues_[static_cast<std::size_t>(other)], 0, nullptr, &marker),
         "clEnqueueMarkerWithWaitList", "queue_wait(" + std::to_string(other) + ")");
   const cl_int err = clEnqueueBarrierWithWaitList(queue(), 1, &marker, nullptr);
   clReleaseEvent(marker);
   check(err, "clEnqueueBarrierWithWaitList", "queue_wait(" + std::to_string(other) + ")");
+  note_command("(queue_wait)", nullptr, start);
 }
 
 void OpenClBackend::finish_queue(int queue) {
@@ -186,9 +194,12 @@ void OpenClBackend::upload_async(Buffer& dst, std::size_t dst_offset, const Host
   check_host_range(src, src_offset, bytes, "opencl", "upload_async");
   check_range(dst, dst_offset, bytes, "upload_async");
   if (bytes == 0) return;
+  const Clock::time_point start = profile_kernels_ ? Clock::now() : Clock::time_point{};
+  cl_event event = nullptr;
   check(clEnqueueWriteBuffer(queue(), mem_of(dst), CL_FALSE, dst_offset, bytes, src.data() + src_offset, 0, nullptr,
-                             nullptr),
+                             event_slot(event)),
         "clEnqueueWriteBuffer", "upload_async");
+  note_command("(upload_async)", event, start);
 }
 
 void OpenClBackend::download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,
@@ -196,9 +207,12 @@ void OpenClBackend::download_async(const Buffer& src, std::size_t src_offset, Ho
   check_host_range(dst, dst_offset, bytes, "opencl", "download_async");
   check_range(src, src_offset, bytes, "download_async");
   if (bytes == 0) return;
+  const Clock::time_point start = profile_kernels_ ? Clock::now() : Clock::time_point{};
+  cl_event event = nullptr;
   check(clEnqueueReadBuffer(queue(), mem_of(src), CL_FALSE, src_offset, bytes, dst.data() + dst_offset, 0, nullptr,
-                            nullptr),
+                            event_slot(event)),
         "clEnqueueReadBuffer", "download_async");
+  note_command("(download_async)", event, start);
 }
 
 void OpenClBackend::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint8_t value) {

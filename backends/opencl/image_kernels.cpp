@@ -35,13 +35,31 @@ void OpenClBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
          map, dst, to_cl(dst_plane));
 }
 
-// §3.2: one launch per level, in order (each level reads the one above; the queue is in order).
+// §3.2. GPUs: levels 1..m in one launch, a 32 x 8 work-group per tile of them
+// (build_pyramid_fused; m as far as each tile's regions fit in local memory, for 8 levels at
+// scale 1.2 all of them). The levels after m, and every level on CPU devices: one launch per
+// level, in order (each level reads the one above; the queue is in order).
 void OpenClBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                   const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();
   checks::check_pyramid(kBackend, pyramid, layout, resize_table, level_offset,
                         /*reject_negative_offsets=*/true, kImagePlanes);
-  for (int n = 1; n < levels; ++n) {
+  int first = 1;  // the first level built one launch per level
+  if (fused_pyramid_ && levels > 2) {
+    const int fused = fused_levels_(layout);
+    if (fused >= 2) {
+      PyramidLayout tiled = layout;  // tiles of levels 1..fused only
+      for (int n = 0; n < levels; ++n)
+        if (n == 0 || n > fused) tiled.levels[static_cast<std::size_t>(n)].width = 0;
+      std::size_t tiles = 0;
+      const ClTiles t = tiles_of(tiled, "build_pyramid", tiles);
+      ClLevelInts offsets{};
+      for (int n = 1; n <= fused; ++n) offsets.v[n] = level_offset[static_cast<std::size_t>(n - 1)];
+      launch("image", "build_pyramid_fused", Range::tiles(tiles), pyramid, to_cl(layout), resize_table, t, offsets);
+      first = fused + 1;
+    }
+  }
+  for (int n = first; n < levels; ++n) {
     const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
     const Plane& level = layout.levels[static_cast<std::size_t>(n)];
     if (level.width <= 0 || level.height <= 0) continue;

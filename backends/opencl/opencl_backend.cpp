@@ -141,13 +141,8 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
   check(clGetDeviceInfo(device_.device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof(max_work_group_), &max_work_group_,
                         nullptr),
         "clGetDeviceInfo(CL_DEVICE_MAX_WORK_GROUP_SIZE)", device_.label());
-  work_groups_ = device_.is_gpu && max_work_group_ >= 256;
-  if (const char* env = std::getenv("PORTA_OPENCL_WORK_GROUPS"); env != nullptr && *env != '\0') {
-    const std::string value = env;
-    if (value != "on" && value != "off")
-      throw BackendError("opencl: PORTA_OPENCL_WORK_GROUPS must be on or off, got '" + value + "'");
-    work_groups_ = value == "on";
-  }
+  work_groups_ = checks::env_switch("opencl", "PORTA_OPENCL_WORK_GROUPS", device_.is_gpu && max_work_group_ >= 256);
+  fused_pyramid_ = checks::env_switch("opencl", "PORTA_OPENCL_FUSED_PYRAMID", work_groups_);
 }
 
 OpenClBackend::~OpenClBackend() {

@@ -9,6 +9,7 @@
 #include <CL/cl.h>
 
 #include <array>
+#include <chrono>
 #include <map>
 #include <memory>
 #include <string>
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/kernel_profile.hpp"
 #include "porta/registry.hpp"
 
@@ -92,10 +94,11 @@ class OpenClBackend final : public Backend {
   /// Sets the arguments in order (a Buffer& passes its cl_mem, anything else by value) and enqueues.
   template <typename... Args>
   void launch(const char* program, const char* kernel_name, const Range& range, const Args&... args) {
+    const Clock::time_point start = profile_kernels_ ? Clock::now() : Clock::time_point{};
     cl_kernel k = kernel(program, kernel_name);
     cl_uint index = 0;
     (set_arg(k, kernel_name, index++, args), ...);
-    enqueue(k, kernel_name, range);
+    enqueue(k, kernel_name, range, start);
   }
   /// Scratch device memory that lives as long as the backend, grown on demand (never shrunk); one
   /// per queue: queues never share scratch memory.
@@ -123,8 +126,15 @@ class OpenClBackend final : public Backend {
       set_arg_raw(k, kernel_name, index, sizeof(T), &value);
     }
   }
+  using Clock = std::chrono::steady_clock;
   void set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint index, std::size_t size, const void* value);
-  void enqueue(cl_kernel k, const char* kernel_name, const Range& range);
+  /// Enqueues `k`; `start` is when its launch() began (host time, when profiling).
+  void enqueue(cl_kernel k, const char* kernel_name, const Range& range, Clock::time_point start);
+  /// BackendOptions::profile_kernels: where a command's event goes (nullptr when not profiling).
+  cl_event* event_slot(cl_event& event) { return profile_kernels_ ? &event : nullptr; }
+  /// BackendOptions::profile_kernels: the host's time for `name` since `start`, and its event (if
+  /// any) to read the device time from once its queue has finished.
+  void note_command(const char* name, cl_event event, Clock::time_point start);
   /// Adds the timed dispatches of `queue` (every queue when -1), which have finished, to profile_
   /// and releases their events.
   void read_timed_events(int queue);
@@ -140,6 +150,12 @@ class OpenClBackend final : public Backend {
   std::map<std::string, cl_program> programs_;
   std::map<std::string, cl_kernel> kernels_;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
+  /// How many levels build_pyramid_fused builds in one launch: 32 x 8 tiles, 8 KiB regions (its
+  /// PORTA_REGION_WORDS * 4).
+  checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
+  /// Whether build_pyramid fuses levels: with work_groups() unless $PORTA_OPENCL_FUSED_PYRAMID
+  /// (on or off) says otherwise.
+  bool fused_pyramid_ = false;
   bool profile_kernels_ = false;
   bool work_groups_ = false;
   std::size_t max_work_group_ = 0;

@@ -82,6 +82,7 @@ class VulkanHostBuffer final : public HostBuffer {
 
 class Runtime : public std::enable_shared_from_this<Runtime> {
  public:
+  using Clock = std::chrono::steady_clock;
   /// The HAL queues (Backend::queue_count()): streams of batches, spread over the device's queues.
   static constexpr int kStreams = 8;
 
@@ -116,11 +117,16 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   /// Submits the stream's pending batch (if any) and waits for it.
   void finish_stream(int stream);
   /// Submits every stream's pending batch without waiting (Backend::flush). With `hold`, a batch
-  /// for a queue the device is still busy with is held back instead, and later ones merged into
-  /// it, until the device is idle at a later start() or the host waits for any batch.
+  /// for a queue on which the device still has hold_depth() batches to run is held back instead,
+  /// and later ones merged into it, until a later start() finds fewer or the host waits for a batch
+  /// after which the device would have nothing to run.
   void start(bool hold = true);
-  /// $PORTA_VULKAN_HOLD_BATCHES: whether start() holds batches back (on by default).
-  void set_hold_batches(bool on) { hold_batches_ = on; }
+  /// $PORTA_VULKAN_HOLD_BATCHES: how many unfinished batches on a device queue make start() hold
+  /// the next one back (0: never; kDefaultHoldDepth by default).
+  void set_hold_depth(int depth) { hold_depth_ = depth; }
+  int hold_depth() const { return hold_depth_; }
+  static constexpr int kDefaultHoldDepth = 2;
+  static constexpr int kMaxHoldDepth = 4;
   /// Submits every pending batch and waits for all of them.
   void flush();
   /// Backend::kernel_times: flushes, then the totals of the timed dispatches.
@@ -212,6 +218,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     Unique<VkQueryPool> timestamps;  ///< BackendOptions::profile_kernels
     // The running batch, until its fence has been waited for.
     bool running = false;
+    std::uint64_t submitted = 0;  ///< the running batch's place in submission order
     std::vector<std::uint64_t> running_ids;
     std::vector<const Kernel*> running_timed;   ///< its timed dispatches, in order
     std::vector<VkSemaphore> running_waits;     ///< free again once it has run
@@ -239,8 +246,10 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   void submit(Stream& s, VkSemaphore signal);
   /// Waits for the running batch, reads its timestamps and frees what it held.
   void complete(Stream& s);
-  /// True while a batch submitted to `queue` has not finished (its fence, not waited for).
-  bool queue_busy(VkQueue queue);
+  /// How many batches submitted to `queue` have not finished (their fences, not waited for).
+  int queue_backlog(VkQueue queue);
+  /// True while a batch submitted to s's queue after s's running one has not finished.
+  bool queued_behind(const Stream& s);
   /// Submits the batch start() held back, if any.
   void submit_held();
   /// Waits on the host until `fence` has signalled, polling it for fence_poll_ first.
@@ -310,7 +319,8 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   double timestamp_ns_ = 1.0;  ///< ns per timestamp tick
   KernelProfile profile_;
   std::chrono::microseconds fence_poll_{0};
-  bool hold_batches_ = true;
+  int hold_depth_ = kDefaultHoldDepth;
+  std::uint64_t submit_clock_ = 0;
   int held_ = -1;  ///< the stream whose pending batch start() holds back, -1 when none
 };
 

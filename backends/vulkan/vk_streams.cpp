@@ -134,6 +134,8 @@ void Runtime::push_command(Stream& s, Command c) {
 
 void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*> buffers, const void* params,
                            std::uint32_t params_bytes, Work work) {
+  const Clock::time_point started = streams_[static_cast<std::size_t>(current_)].timestamps ? Clock::now()
+                                                                                             : Clock::time_point{};
   Command c;
   if (!make_dispatch(name, buffers, params_bytes, work, c)) return;
   Stream& s = current();
@@ -153,7 +155,9 @@ void Runtime::dispatch_raw(const char* name, std::initializer_list<const Buffer*
     std::memcpy(c.push.data(), params, params_bytes);
     c.push_bytes = (params_bytes + 3) / 4 * 4;
   }
+  const bool timed = static_cast<bool>(s.timestamps);
   push_command(s, std::move(c));
+  if (timed) profile_.add_host(name, std::chrono::duration<double, std::milli>(Clock::now() - started).count());
 }
 
 // ---- Streams -------------------------------------------------------------------------------------
@@ -202,37 +206,49 @@ void Runtime::finish_stream(int stream) {
   ctx_->throw_validation_errors("a submitted batch");
 }
 
-bool Runtime::queue_busy(VkQueue queue) {
+int Runtime::queue_backlog(VkQueue queue) {
+  int n = 0;
   for (const Stream& t : streams_)
-    if (t.running && t.queue == queue && vkGetFenceStatus(ctx_->device(), t.fence.get()) == VK_NOT_READY) return true;
+    if (t.running && t.queue == queue && vkGetFenceStatus(ctx_->device(), t.fence.get()) == VK_NOT_READY) ++n;
+  return n;
+}
+
+bool Runtime::queued_behind(const Stream& s) {
+  for (const Stream& t : streams_)
+    if (&t != &s && t.running && t.queue == s.queue && t.submitted > s.submitted &&
+        vkGetFenceStatus(ctx_->device(), t.fence.get()) == VK_NOT_READY)
+      return true;
   return false;
 }
 
 void Runtime::start(bool hold) {
+  // While the device has hold_depth_ batches of a queue still to run, a flushed batch for that
+  // queue is held back, and the batches of later start()s on it are merged into it (their steps
+  // side by side, as merge_pending does for a stereo pair): frames in flight then share barriers
+  // instead of each waiting for every earlier frame's. At depth 2 the device always has the next
+  // batch queued behind the running one, so it never waits for the host between the two, and
+  // what the host flushes meanwhile gathers in the held batch. A wait on the host that would leave
+  // the device without work submits it first (complete), so nothing is held while the device idles.
+  const bool may_hold = hold && hold_depth_ > 0;
   for (std::size_t i = 0; i < streams_.size(); ++i) {
     Stream& s = streams_[i];
     const int index = static_cast<int>(i);
     if ((s.pending.empty() && s.waits.empty()) || index == held_) continue;
-    // While the device still runs earlier batches, the batch is held back, and the batches of later
-    // start()s on the same queue are merged into it (their steps side by side, as merge_pending
-    // does for a stereo pair): frames in flight then share barriers instead of each waiting for
-    // every earlier frame's. A wait on the host submits it first (complete), so it is never
-    // held while the host waits.
-    if (hold && hold_batches_ && queue_busy(s.queue)) {
-      if (held_ < 0) {
-        held_ = index;
-        ++stats_.held_batches;
-        continue;
-      }
-      if (streams_[static_cast<std::size_t>(held_)].queue == s.queue) {
-        merge_pending(held_, index);
-        ++stats_.held_batches;
-        continue;
-      }
+    if (may_hold && held_ >= 0 && streams_[static_cast<std::size_t>(held_)].queue == s.queue) {
+      merge_pending(held_, index);
+      ++stats_.held_batches;
+      continue;
+    }
+    if (may_hold && held_ < 0 && queue_backlog(s.queue) >= hold_depth_) {
+      held_ = index;
+      ++stats_.held_batches;
+      continue;
     }
     submit(s, VK_NULL_HANDLE);
   }
-  if (held_ >= 0 && !(hold && queue_busy(streams_[static_cast<std::size_t>(held_)].queue))) submit_held();
+  if (held_ >= 0 &&
+      !(may_hold && queue_backlog(streams_[static_cast<std::size_t>(held_)].queue) >= hold_depth_))
+    submit_held();
 }
 
 void Runtime::submit_held() {
@@ -319,6 +335,7 @@ void Runtime::drop_pending(Stream& s) {
 void Runtime::submit(Stream& s, VkSemaphore signal) {
   if (held_ == static_cast<int>(&s - streams_.data())) held_ = -1;
   if (s.running) complete(s);
+  const Clock::time_point started = s.timestamps ? Clock::now() : Clock::time_point{};
   try {
     const VkCommandBuffer cmd = s.pending.empty() ? VK_NULL_HANDLE : command_buffer_for(s);
     const std::vector<VkPipelineStageFlags> wait_stages(s.waits.size(), kStages);
@@ -337,6 +354,7 @@ void Runtime::submit(Stream& s, VkSemaphore signal) {
   }
   ++stats_.submits;
   s.running = true;
+  s.submitted = ++submit_clock_;
   s.running_ids = std::move(s.pending_ids);
   s.running_timed.clear();
   if (s.timestamps) {
@@ -351,11 +369,20 @@ void Runtime::submit(Stream& s, VkSemaphore signal) {
   s.pending_dispatch = false;
   s.params_used = 0;
   s.staging_used = 0;
+  if (s.timestamps)
+    profile_.add_host("(submit)", std::chrono::duration<double, std::milli>(Clock::now() - started).count(), true);
 }
 
 void Runtime::complete(Stream& s) {
   if (!s.running) return;
-  submit_held();  // the device works on it while the host waits
+  if (held_ >= 0) {
+    // The device works on the held batch while the host waits, unless it has work queued behind
+    // this batch anyway (then later frames may still merge into the held one) or has run it.
+    const Stream& h = streams_[static_cast<std::size_t>(held_)];
+    if (h.queue != s.queue ||
+        (vkGetFenceStatus(ctx_->device(), s.fence.get()) == VK_NOT_READY && !queued_behind(s)))
+      submit_held();
+  }
   s.running = false;  // also when the wait fails: the error is reported once
   const VkFence fence = s.fence.get();
   const VkDevice dev = ctx_->device();

@@ -15,12 +15,8 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   const VkPhysicalDeviceLimits& limits = runtime_->context().limits();
   work_groups_ = !runtime_->context().cpu_device() && limits.maxComputeWorkGroupInvocations >= 256 &&
                  limits.maxComputeWorkGroupSize[0] >= 256 && limits.maxComputeWorkGroupSize[1] >= 8;
-  if (const char* env = std::getenv("PORTA_VULKAN_WORK_GROUPS"); env != nullptr && *env != '\0') {
-    const std::string value = env;
-    if (value != "on" && value != "off")
-      throw BackendError("vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got '" + value + "'");
-    work_groups_ = value == "on";
-  }
+  work_groups_ = checks::env_switch("vulkan", "PORTA_VULKAN_WORK_GROUPS", work_groups_);
+  fused_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", work_groups_);
   // How long the host polls a batch's fence before it blocks: on a GPU a blocking wait's wake-up
   // costs tens of microseconds; a CPU device needs the cores for the batch itself.
   runtime_->set_fence_poll(std::chrono::microseconds(checks::env_int(
@@ -28,9 +24,12 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
       "a time in microseconds")));
   if (const char* env = std::getenv("PORTA_VULKAN_HOLD_BATCHES"); env != nullptr && *env != '\0') {
     const std::string value = env;
-    if (value != "on" && value != "off")
-      throw BackendError("vulkan: PORTA_VULKAN_HOLD_BATCHES must be on or off, got '" + value + "'");
-    runtime_->set_hold_batches(value == "on");
+    if (value == "on" || value == "off") {
+      runtime_->set_hold_depth(value == "on" ? Runtime::kDefaultHoldDepth : 0);
+    } else {
+      runtime_->set_hold_depth(checks::env_int("vulkan", "PORTA_VULKAN_HOLD_BATCHES", 1, Runtime::kMaxHoldDepth,
+                                               Runtime::kDefaultHoldDepth, "on, off or a batch count"));
+    }
   }
   queues_ = Runtime::kStreams;
   if (const char* env = std::getenv("PORTA_VULKAN_QUEUES"); env != nullptr && *env != '\0') {

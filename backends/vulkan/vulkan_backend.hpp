@@ -54,8 +54,10 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "porta/registry.hpp"
 
 namespace porta::vulkan {
@@ -72,7 +74,7 @@ struct VulkanStats {
   std::uint64_t command_buffers_replayed = 0;  ///< batches that reused a recorded command buffer
   std::uint64_t submits = 0;
   std::uint64_t merged_batches = 0;  ///< batches merged into another (stream_wait, held batches)
-  std::uint64_t held_batches = 0;    ///< batches start() held back while the device was busy
+  std::uint64_t held_batches = 0;    ///< batches start() held back or merged into a held one while the device was busy
 };
 
 class VulkanBackend final : public Backend {
@@ -117,7 +119,8 @@ class VulkanBackend final : public Backend {
   /// (orient_per_item.comp), per 32 x 8 tile of all levels with shared memory (fast_tiled.comp,
   /// blur_tiled.comp: one dispatch where the blur had two), and PFA and compaction in one workgroup
   /// (pfa_group.comp, compact_group.comp) rather than three dispatches each: on GPUs that run
-  /// workgroups of 256, not on a CPU device (lavapipe), where they are slower.
+  /// workgroups of 256, not on a CPU device (lavapipe), where they are slower; the pyramid's
+  /// levels in one dispatch (build_pyramid_fused.comp) rather than one dispatch per level.
   /// $PORTA_VULKAN_WORK_GROUPS=on or off overrides (the equivalence suite runs both on lavapipe).
   /// The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
@@ -125,6 +128,12 @@ class VulkanBackend final : public Backend {
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
   bool work_groups_ = true;
+  /// How many levels build_pyramid_fused.comp builds in one dispatch: 32 x 8 tiles, 8 KiB regions
+  /// (its REGION_WORDS * 4).
+  checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
+  /// Whether build_pyramid fuses levels: with work_groups() unless $PORTA_VULKAN_FUSED_PYRAMID
+  /// (on or off) says otherwise.
+  bool fused_pyramid_ = true;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };

@@ -198,6 +198,63 @@ int env_int(std::string_view backend, const char* variable, int lo, int hi, int 
   return static_cast<int>(n);
 }
 
+bool env_switch(std::string_view backend, const char* variable, bool fallback) {
+  const char* env = std::getenv(variable);
+  if (env == nullptr || *env == '\0') return fallback;
+  const std::string value = env;
+  if (value != "on" && value != "off")
+    throw BackendError(std::string(backend) + ": " + variable + " must be on or off, got '" + value + "'");
+  return value == "on";
+}
+
+int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, std::int64_t capacity_bytes) {
+  const int levels = layout.num_levels();
+  std::vector<std::pair<int, int>> sizes;
+  int usable = 0;  // levels 0..usable-1 are not empty
+  for (const Plane& p : layout.levels) {
+    if (p.width <= 0 || p.height <= 0) break;
+    sizes.emplace_back(p.width, p.height);
+    ++usable;
+  }
+  if (usable < 2) return 0;
+  const ResizeTables tables = build_resize_tables(sizes);
+  int fused = 1;  // level 1 reads level 0 only: always
+  for (int n = 2; n < std::min(levels, usable); ++n) {
+    const auto [w, h] = sizes[static_cast<std::size_t>(n)];
+    bool fits = true;
+    for (int ty = 0; ty < h && fits; ty += tile_h) {
+      for (int tx = 0; tx < w && fits; tx += tile_w) {
+        int xa = tx, xb = std::min(tx + tile_w, w) - 1, ya = ty, yb = std::min(ty + tile_h, h) - 1;
+        for (int k = n; k >= 2; --k) {  // the region of level k - 1 that level k's region reads
+          const ResizeAxis& cols = tables.cols[static_cast<std::size_t>(k - 1)];
+          const ResizeAxis& rows = tables.rows[static_cast<std::size_t>(k - 1)];
+          const auto [aw, ah] = sizes[static_cast<std::size_t>(k - 1)];
+          xa = cols.src0[static_cast<std::size_t>(xa)];
+          xb = std::min(cols.src0[static_cast<std::size_t>(xb)] + 1, aw - 1);
+          ya = rows.src0[static_cast<std::size_t>(ya)];
+          yb = std::min(rows.src0[static_cast<std::size_t>(yb)] + 1, ah - 1);
+          const std::int64_t padded = (static_cast<std::int64_t>(xb - xa + 1) + 3) / 4 * 4;
+          if (padded * (yb - ya + 1) > capacity_bytes) {
+            fits = false;
+            break;
+          }
+        }
+      }
+    }
+    if (!fits) break;
+    fused = n;
+  }
+  return fused;
+}
+
+int FusedPyramidLevels::operator()(const PyramidLayout& layout) {
+  std::vector<std::int32_t> key;
+  for (const Plane& p : layout.levels) key.insert(key.end(), {p.width, p.height});
+  auto it = known_.find(key);
+  if (it == known_.end()) it = known_.emplace(key, fused_pyramid_levels(layout, tile_w_, tile_h_, capacity_)).first;
+  return it->second;
+}
+
 LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout, int tile_w,
                        int tile_h) {
   LevelTiles t;

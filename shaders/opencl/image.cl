@@ -78,6 +78,95 @@ __kernel void build_pyramid_level(__global uchar* pyramid, const porta_plane abo
   pyramid[level.offset_bytes + (long)i * level.pitch + j] = (uchar)((sum + (1u << 21)) >> 22);
 }
 
+// §3.2 pyramid on GPUs, levels 1..m in one launch (as build_pyramid_level; the Vulkan shader
+// build_pyramid_fused.comp says how): one 32 x 8 work-group per tile of those levels (`tiles`),
+// computing from level 0 the regions of levels 1..n-1 its level-n tile reads into local memory,
+// level by level, then the tile. table_offset.v[n]: where level n's tables start.
+#define PORTA_REGION_WORDS 2048
+
+// Source pixel (x, y) of level k - 1: level 0 from the pyramid, else from the region at `region`
+// whose top-left pixel is (xa, ya) and rows `stride` bytes.
+uint porta_pyramid_fetch(__global const uchar* pyramid, const porta_plane zero, __local const uint* region, int k,
+                         int stride, int xa, int ya, int x, int y) {
+  if (k == 1) return pyramid[zero.offset_bytes + (long)y * zero.pitch + x];
+  const int i = clamp((y - ya) * stride + (x - xa), 0, 4 * PORTA_REGION_WORDS - 1);
+  return (region[i >> 2] >> (8 * (i & 3))) & 255u;
+}
+
+uint porta_pyramid_resample(__global const uchar* pyramid, const porta_plane zero, const porta_plane above,
+                            const porta_plane level, __global const int* table, int table_offset,
+                            __local const uint* region, int k, int stride, int xa, int ya, int x, int y) {
+  __global const int* col_src0 = table + table_offset;
+  __global const int* col_w1 = col_src0 + level.width;
+  __global const int* row_src0 = col_w1 + level.width;
+  __global const int* row_w1 = row_src0 + level.height;
+  const int y0 = row_src0[y];
+  const int y1 = min(y0 + 1, above.height - 1);
+  const uint wy1 = (uint)row_w1[y];
+  const uint wy0 = 2048 - wy1;
+  const int x0 = col_src0[x];
+  const int x1 = min(x0 + 1, above.width - 1);
+  const uint wx1 = (uint)col_w1[x];
+  const uint wx0 = 2048 - wx1;
+  const uint sum =
+      wy0 * (wx0 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x0, y0) +
+             wx1 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x1, y0)) +
+      wy1 * (wx0 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x0, y1) +
+             wx1 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x1, y1));
+  return (sum + (1u << 21)) >> 22;
+}
+
+__kernel __attribute__((reqd_work_group_size(PORTA_TILE_W, PORTA_TILE_H, 1)))
+void build_pyramid_fused(__global uchar* pyramid, const porta_levels layout, __global const int* table,
+                         const porta_tiles tiles, const porta_level_ints table_offset) {
+  __local uint region[2 * PORTA_REGION_WORDS];
+  int n;
+  int2 origin;
+  PORTA_TILE_OF(tiles, layout.count, (int)get_group_id(0), n, origin);
+  if (n < 1) return;  // the whole work-group
+  int xa[PORTA_MAX_LEVELS], xb[PORTA_MAX_LEVELS], ya[PORTA_MAX_LEVELS], yb[PORTA_MAX_LEVELS];
+  xa[n] = origin.x;
+  xb[n] = min(origin.x + PORTA_TILE_W, layout.level[n].width) - 1;
+  ya[n] = origin.y;
+  yb[n] = min(origin.y + PORTA_TILE_H, layout.level[n].height) - 1;
+  for (int k = n; k >= 2; --k) {
+    __global const int* cols = table + table_offset.v[k];
+    __global const int* rows = cols + 2 * layout.level[k].width;
+    xa[k - 1] = cols[xa[k]];
+    xb[k - 1] = min(cols[xb[k]] + 1, layout.level[k - 1].width - 1);
+    ya[k - 1] = rows[ya[k]];
+    yb[k - 1] = min(rows[yb[k]] + 1, layout.level[k - 1].height - 1);
+  }
+  const porta_plane zero = layout.level[0];
+  const int tx = (int)get_local_id(0), ty = (int)get_local_id(1);
+  const int tid = ty * PORTA_TILE_W + tx;
+  for (int k = 1; k < n; ++k) {  // regions of levels 1..n-1, 4 pixels per step
+    __local const uint* src = region + ((k - 1) & 1) * PORTA_REGION_WORDS;
+    const int src_stride = k == 1 ? 0 : ((xb[k - 1] - xa[k - 1] + 4) >> 2) * 4;
+    __local uint* dst = region + (k & 1) * PORTA_REGION_WORDS;
+    const int cols = xb[k] - xa[k] + 1;
+    const int words = (cols + 3) >> 2;
+    const int steps = words * (yb[k] - ya[k] + 1);
+    for (int q = tid; q < steps; q += PORTA_TILE_W * PORTA_TILE_H) {
+      const int r = q / words, c = (q - r * words) * 4;
+      uint word = 0;
+      for (int e = 0; e < 4 && c + e < cols; ++e)
+        word |= porta_pyramid_resample(pyramid, zero, layout.level[k - 1], layout.level[k], table, table_offset.v[k],
+                                       src, k, src_stride, xa[k - 1], ya[k - 1], xa[k] + c + e, ya[k] + r)
+                << (8 * e);
+      dst[min(q, PORTA_REGION_WORDS - 1)] = word;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  const porta_plane level = layout.level[n];
+  const int x = origin.x + tx, y = origin.y + ty;
+  if (x >= level.width || y >= level.height) return;
+  const int src_stride = n == 1 ? 0 : ((xb[n - 1] - xa[n - 1] + 4) >> 2) * 4;
+  pyramid[level.offset_bytes + (long)y * level.pitch + x] = (uchar)porta_pyramid_resample(
+      pyramid, zero, layout.level[n - 1], level, table, table_offset.v[n], region + ((n - 1) & 1) * PORTA_REGION_WORDS,
+      n, src_stride, xa[n - 1], ya[n - 1], x, y);
+}
+
 // §3.7 blur, horizontal pass (DESIGN.md §3.7): all levels in one launch, one work-item per pixel
 // (global: max width x sum of heights); h = sum t_k * p(reflect101(x + k - 3)) unrounded, into the
 // uint16 scratch plane of the level (packed, pitch = width, at element scratch_offset.v[n]).

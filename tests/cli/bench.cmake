@@ -85,6 +85,10 @@ frames/s"
                    STDERR "opencl: PORTA_OPENCL_QUEUES must be a queue count from 1 to 8, got '0'"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_queues_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_QUEUES=0)
+    porta_cli_test(bench_opencl_fused_pyramid_bad_value EXIT 1
+                   STDERR "opencl: PORTA_OPENCL_FUSED_PYRAMID must be on or off, got '1'"
+                   ARGS bench ${tiny} --backend opencl --no-peer)
+    set_tests_properties(cli.bench_opencl_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_FUSED_PYRAMID=1)
   endif()
   if(TARGET porta_backend_vulkan)  # lavapipe in CI
     porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
@@ -95,14 +99,18 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_QUEUES must be a queue count from 1 to 8, got '9'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_QUEUES=9)
+    porta_cli_test(bench_vulkan_fused_pyramid_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_FUSED_PYRAMID must be on or off, got 'yes'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FUSED_PYRAMID=yes)
     porta_cli_test(bench_vulkan_fence_poll_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_FENCE_POLL_US must be a time in microseconds from 0 to 1000000, got '1ms'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_fence_poll_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FENCE_POLL_US=1ms)
     porta_cli_test(bench_vulkan_hold_batches_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_HOLD_BATCHES must be on or off, got '1'"
+                   STDERR "vulkan: PORTA_VULKAN_HOLD_BATCHES must be on, off or a batch count from 1 to 4, got '5'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_hold_batches_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_HOLD_BATCHES=1)
+    set_tests_properties(cli.bench_vulkan_hold_batches_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_HOLD_BATCHES=5)
     porta_cli_test(bench_vulkan_device_queues_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to 8, got 'two'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)

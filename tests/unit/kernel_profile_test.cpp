@@ -1,5 +1,6 @@
 // Per-kernel device timing (BackendOptions::profile_kernels, Backend::kernel_times): the vulkan
-// and opencl backends time every dispatch (timestamp queries, profiling events), the totals name
+// and opencl backends time every dispatch (timestamp queries, profiling events) and the host's
+// work issuing it (with rows for transfers, queue waits and submissions), the totals name
 // the frontend's kernels with the dispatch counts of a frame, reset starts them again, the timing
 // changes no result byte, and a backend made without it reports nothing. Each backend runs where a
 // device is (lavapipe and PoCL in CI); the test says so when it is not.
@@ -42,14 +43,17 @@ TEST_P(KernelProfiling, TimesEveryDispatchOfAFrameWithoutChangingItsBytes) {
   const StereoFeatures a = with.detect_stereo(left.view(), right.view());
   const std::vector<KernelTime> first = profiled->kernel_times(true);
   ASSERT_FALSE(first.empty());
-  double total_ms = 0.0;
+  double total_ms = 0.0, host_ms = 0.0;
   for (const KernelTime& t : first) {
     EXPECT_FALSE(t.kernel.empty());
     EXPECT_GE(t.dispatches, 1u) << t.kernel;
     EXPECT_GE(t.device_ms, 0.0) << t.kernel;
+    EXPECT_GE(t.host_ms, 0.0) << t.kernel;
     total_ms += t.device_ms;
+    host_ms += t.host_ms;
   }
   EXPECT_GT(total_ms, 0.0) << "a whole stereo frame took no device time";
+  EXPECT_GT(host_ms, 0.0) << "issuing a whole stereo frame took the host no time";
   auto named = [&](const char* kernel) {
     for (const KernelTime& t : first)
       if (t.kernel == kernel) return t.dispatches;
@@ -58,6 +62,15 @@ TEST_P(KernelProfiling, TimesEveryDispatchOfAFrameWithoutChangingItsBytes) {
   EXPECT_EQ(named("fast_crf"), 2u) << "one FAST pass per image of the pair";
   EXPECT_EQ(named("orb_describe"), 2u);
   EXPECT_EQ(named("stereo_match_candidates"), 1u);
+  // The host's own rows: opencl's transfers (each image uploaded once, its keypoints and
+  // descriptors downloaded) and the left queue's wait for the right; vulkan's submissions.
+  if (name == "opencl") {
+    EXPECT_EQ(named("(upload_async)"), 2u);
+    EXPECT_GE(named("(download_async)"), 4u);
+    EXPECT_EQ(named("(queue_wait)"), 1u);
+  } else {
+    EXPECT_GE(named("(submit)"), 1u);
+  }
 
   // Reset: nothing since; the same frame again dispatches the same kernels the same number of times.
   EXPECT_TRUE(profiled->kernel_times(false).empty());

@@ -2,6 +2,8 @@
 
 #include <numeric>
 
+#include "porta/kernel_checks.hpp"
+#include "porta/layout.hpp"
 #include "porta/tables.hpp"
 
 namespace porta {
@@ -55,6 +57,37 @@ TEST(Pyramid, ResizeWeightsSumTo2048AndStayInside) {
   // 640 -> 533: destination column 0 samples source x = 0.5 * 640/533 - 0.5 = 0.1004 -> w1 = 206.
   EXPECT_EQ(t.cols[0].src0[0], 0);
   EXPECT_EQ(t.cols[0].w1[0], 206);
+}
+
+// Fused pyramid kernels: a 32 x 8 tile of level 2 of 64x16 -> 32x8 -> 16x4 (scale 2) reads, by
+// the resize tables (source = floor((j + 0.5) * 2 - 0.5) = 2j, plus one), columns 0..31 and rows
+// 0..7 of level 1: 256 bytes. With 256 bytes both levels fuse, with 255 only level 1 (which reads
+// level 0 alone, whatever the capacity).
+TEST(Pyramid, FusedLevelsAreThoseWhoseRegionsFitHandWorked) {
+  const PyramidLayout layout = PyramidLayout::make({{64, 16}, {32, 8}, {16, 4}}, 1);
+  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 256), 2);
+  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 255), 1);
+  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 0), 1);
+  // A 31-wide level 1 pads its region rows to 32 bytes: 8 x 32 still fits 256, not 255.
+  const PyramidLayout odd = PyramidLayout::make({{62, 16}, {31, 8}, {16, 4}}, 1);
+  EXPECT_EQ(checks::fused_pyramid_levels(odd, 32, 8, 256), 2);
+  EXPECT_EQ(checks::fused_pyramid_levels(odd, 32, 8, 255), 1);
+  // Nothing to fuse: one level, or an empty level 1.
+  EXPECT_EQ(checks::fused_pyramid_levels(PyramidLayout::make({{64, 16}}, 1), 32, 8, 1 << 20), 0);
+  PyramidLayout empty = layout;
+  empty.levels[1].width = 0;
+  EXPECT_EQ(checks::fused_pyramid_levels(empty, 32, 8, 1 << 20), 0);
+}
+
+// The default pyramid (8 levels at scale 1.2) fuses whole in the GPU shaders' 8 KiB; 12 levels at
+// scale 2 do not (a tile of level 11 reads ~2^10 times its width of level 1).
+TEST(Pyramid, DefaultPyramidFusesWhole) {
+  const PyramidLayout kitti = PyramidLayout::make(pyramid_level_sizes(1242, 375, 8, 1.2), 1);
+  EXPECT_EQ(checks::fused_pyramid_levels(kitti, 32, 8, 8192), 7);
+  const PyramidLayout deep = PyramidLayout::make(pyramid_level_sizes(1242, 375, 12, 2.0), 1);
+  const int fused = checks::fused_pyramid_levels(deep, 32, 8, 8192);
+  EXPECT_GE(fused, 1);
+  EXPECT_LT(fused, 11);
 }
 
 TEST(Culling, CellSizesShrinkWithTheLevelScale) {

@@ -191,10 +191,9 @@ TEST_F(VulkanBackendTest, Streams_StereoImagesRunAsOneMergedBatch) {
   }
 }
 
-// Frames in flight while the device is busy: start() holds a frame's batch back and merges later
-// frames' into it; the features are still the cpu backend's, frame by frame, and a held batch is
-// submitted when the host waits for any frame (collect), so nothing waits forever.
-TEST_F(VulkanBackendTest, Streams_FramesInFlightMergeWhileTheDeviceIsBusy) {
+// 20 frames, 4 in flight, each checked against the cpu backend's features; the backend's counters
+// over the run.
+vulkan::VulkanStats run_frames_in_flight(vulkan::VulkanBackend& backend) {
   const FrontendSettings settings = small_settings();
   std::vector<Image> images;
   for (int i = 0; i < 5; ++i) images.push_back(test::textured_image(320, 240, 10 + i));
@@ -204,30 +203,59 @@ TEST_F(VulkanBackendTest, Streams_FramesInFlightMergeWhileTheDeviceIsBusy) {
   for (const Image& image : images) expected.push_back(reference.detect(image.view()));
   FrontendOptions options;
   options.in_flight = 4;
-  Frontend frontend(*backend_, settings, 320, 240, options);
-  const vulkan::VulkanStats before = backend_->stats();
+  Frontend frontend(backend, settings, 320, 240, options);
+  const vulkan::VulkanStats before = backend.stats();
   std::size_t collected = 0;
-  for (int frame = 0; frame < 20; ++frame) {
-    frontend.submit(images[static_cast<std::size_t>(frame) % images.size()].view());
-    if (frame >= 3) {
-      const Features got = frontend.collect();
-      const Features& want = expected[collected++ % images.size()];
-      ASSERT_EQ(got.keypoints.size(), want.keypoints.size()) << "frame " << collected - 1;
-      EXPECT_EQ(std::memcmp(got.keypoints.data(), want.keypoints.data(), got.keypoints.size() * sizeof(Keypoint)), 0);
-      EXPECT_EQ(got.descriptors.size(), want.descriptors.size());
-      EXPECT_EQ(std::memcmp(got.descriptors.data(), want.descriptors.data(),
-                            got.descriptors.size() * sizeof(Descriptor)),
-                0);
-    }
-  }
-  while (collected < 20) {
+  const auto check_next = [&] {
     const Features got = frontend.collect();
     const Features& want = expected[collected++ % images.size()];
-    EXPECT_EQ(got.keypoints.size(), want.keypoints.size());
+    ASSERT_EQ(got.keypoints.size(), want.keypoints.size()) << "frame " << collected - 1;
+    EXPECT_EQ(std::memcmp(got.keypoints.data(), want.keypoints.data(), got.keypoints.size() * sizeof(Keypoint)), 0);
+    ASSERT_EQ(got.descriptors.size(), want.descriptors.size());
+    EXPECT_EQ(
+        std::memcmp(got.descriptors.data(), want.descriptors.data(), got.descriptors.size() * sizeof(Descriptor)),
+        0);
+  };
+  for (int frame = 0; frame < 20; ++frame) {
+    frontend.submit(images[static_cast<std::size_t>(frame) % images.size()].view());
+    if (frame >= 3) check_next();
   }
-  const vulkan::VulkanStats after = backend_->stats();
-  EXPECT_GT(after.held_batches, before.held_batches) << "no frame was ever held back";
-  EXPECT_GT(after.merged_batches, before.merged_batches) << "no held frame was merged with another";
+  while (collected < 20) check_next();
+  vulkan::VulkanStats delta = backend.stats();
+  delta.held_batches -= before.held_batches;
+  delta.merged_batches -= before.merged_batches;
+  return delta;
+}
+
+// Frames in flight while the device is busy: start() holds a frame's batch back and merges later
+// frames' into it; the features are still the cpu backend's, frame by frame, and a held batch is
+// submitted when the host would otherwise wait on an idle device (collect), so nothing waits
+// forever. PORTA_VULKAN_HOLD_BATCHES sets how many unfinished batches make it hold (1 or the
+// default 2), or turns holding off.
+TEST_F(VulkanBackendTest, Streams_FramesInFlightMergeWhileTheDeviceIsBusy) {
+  const vulkan::VulkanStats held = run_frames_in_flight(*backend_);
+  EXPECT_GT(held.held_batches, 0u) << "no frame was ever held back";
+  EXPECT_GT(held.merged_batches, 0u) << "no held frame was merged with another";
+
+  const char* variable = "PORTA_VULKAN_HOLD_BATCHES";
+  for (const char* value : {"1", "off"}) {
+    SCOPED_TRACE(std::string(variable) + "=" + value);
+    ::setenv(variable, value, 1);
+    std::unique_ptr<vulkan::VulkanBackend> backend;
+    try {
+      backend = std::make_unique<vulkan::VulkanBackend>();
+    } catch (...) {
+      ::unsetenv(variable);
+      throw;
+    }
+    ::unsetenv(variable);
+    const vulkan::VulkanStats stats = run_frames_in_flight(*backend);
+    if (std::string(value) == "off") {
+      EXPECT_EQ(stats.held_batches, 0u);
+    } else {
+      EXPECT_GT(stats.held_batches, 0u);
+    }
+  }
 }
 
 TEST_F(VulkanBackendTest, Memory_FillUploadDownloadAtAnyAlignment) {

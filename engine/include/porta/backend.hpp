@@ -109,11 +109,15 @@ struct StereoParams {
   int max_hamming = 75;  ///< best distance must be strictly below
 };
 
-/// Device time of one kernel, summed over its dispatches (BackendOptions::profile_kernels).
+/// Device time of one kernel, summed over its dispatches (BackendOptions::profile_kernels), and the
+/// host's time issuing them: opencl, setting the arguments and enqueueing (transfers and queue
+/// waits have rows of their own); vulkan, recording them into the batch (its submissions are the
+/// row "(submit)", host time only).
 struct KernelTime {
   std::string kernel;
   std::uint64_t dispatches = 0;
   double device_ms = 0.0;
+  double host_ms = 0.0;
 };
 
 // ---- The interface -------------------------------------------------------------------------------

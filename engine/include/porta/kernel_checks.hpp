@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <limits>
+#include <map>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -110,6 +111,10 @@ int usable_capacity(const ConstDeviceList& list,
 /// integer in [lo, hi].
 int env_int(std::string_view backend, const char* variable, int lo, int hi, int fallback, std::string_view what);
 
+/// The switch `variable` of the environment: true for "on", false for "off", `fallback` when it
+/// is unset or empty; anything else fails ("<backend>: <variable> must be on or off, got '...'").
+bool env_switch(std::string_view backend, const char* variable, bool fallback);
+
 /// Tiles of tile_w x tile_h pixels over every level of a pyramid, numbered level by level: the
 /// launch geometry of GPU kernels that run all levels in one dispatch, one workgroup per tile.
 /// Level n owns tiles [first[n], first[n + 1]); `across[n]` tiles make one of its rows. Empty
@@ -122,5 +127,28 @@ struct LevelTiles {
 /// The tiles of `layout`; fails ("<backend>: <kernel>: ...") when they number more than 2^31 - 1.
 LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout, int tile_w,
                        int tile_h);
+
+/// For fused pyramid kernels: one dispatch builds levels 1..m, one workgroup per tile_w x tile_h
+/// tile of those levels, each computing from level 0, in on-chip memory, the regions of levels
+/// 1..n-1 that its level-n tile reads. Returns the largest such m (at most num_levels - 1) for
+/// which every region, its rows padded to 4 bytes, fits in `capacity_bytes`, with the resize
+/// tables build_resize_tables makes for the layout's level sizes (the contract's tables, whose
+/// source indices never decrease). 0 for one level, or when level 1 is empty; levels after an
+/// empty one are not fused.
+int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, std::int64_t capacity_bytes);
+
+/// fused_pyramid_levels for one kernel's tile and capacity, computed once per layout (its levels'
+/// sizes): a backend's member.
+class FusedPyramidLevels {
+ public:
+  FusedPyramidLevels(int tile_w, int tile_h, std::int64_t capacity_bytes)
+      : tile_w_(tile_w), tile_h_(tile_h), capacity_(capacity_bytes) {}
+  int operator()(const PyramidLayout& layout);
+
+ private:
+  int tile_w_, tile_h_;
+  std::int64_t capacity_;
+  std::map<std::vector<std::int32_t>, int> known_;  // key: the levels' widths and heights
+};
 
 }  // namespace porta::checks
