@@ -85,9 +85,10 @@ void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& r
   }
   std::size_t local[2] = {r.local[0], r.local[1] ? r.local[1] : 1};
   cl_event event = nullptr;
-  check(clEnqueueNDRangeKernel(queue(), k, static_cast<cl_uint>(r.dims), nullptr, global,
-                               has_local ? local : nullptr, 0, nullptr, event_slot(event)),
-        "clEnqueueNDRangeKernel", kernel_name);
+  if (const cl_int err = clEnqueueNDRangeKernel(queue(), k, static_cast<cl_uint>(r.dims), nullptr, global,
+                                                has_local ? local : nullptr, 0, nullptr, event_slot(event));
+      err != CL_SUCCESS)
+    check(err, "clEnqueueNDRangeKernel", kernel_name);
   note_command(kernel_name, event, start);
 }
 
@@ -156,7 +157,8 @@ void OpenClBackend::synchronize() {
 
 void OpenClBackend::flush() {
   for (int q = 0; q < queue_count_; ++q)
-    check(clFlush(queues_[static_cast<std::size_t>(q)]), "clFlush", "queue " + std::to_string(q));
+    if (const cl_int err = clFlush(queues_[static_cast<std::size_t>(q)]); err != CL_SUCCESS)
+      check(err, "clFlush", "queue " + std::to_string(q));
 }
 
 // ---- Memory and transfers ------------------------------------------------------------------------

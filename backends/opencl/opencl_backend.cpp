@@ -229,19 +229,26 @@ cl_program OpenClBackend::program(const char* name) {
 
 
 cl_kernel OpenClBackend::kernel(const char* program_name, const char* kernel_name) {
+  // Every launch passes string literals: found by their addresses without building a string.
+  if (auto it = kernels_by_address_.find({program_name, kernel_name}); it != kernels_by_address_.end())
+    return it->second;
   const std::string key = std::string(program_name) + "/" + kernel_name;
-  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
-  cl_int err = CL_SUCCESS;
-  cl_kernel k = clCreateKernel(program(program_name), kernel_name, &err);
-  check(err, "clCreateKernel", key);
-  kernels_.emplace(key, k);
-  return k;
+  auto it = kernels_.find(key);
+  if (it == kernels_.end()) {
+    cl_int err = CL_SUCCESS;
+    cl_kernel k = clCreateKernel(program(program_name), kernel_name, &err);
+    check(err, "clCreateKernel", key);
+    it = kernels_.emplace(key, k).first;
+  }
+  kernels_by_address_.emplace(std::make_pair(program_name, kernel_name), it->second);
+  return it->second;
 }
 
 void OpenClBackend::set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint index, std::size_t size,
                                 const void* value) {
-  check(clSetKernelArg(k, index, size, value), "clSetKernelArg",
-        std::string(kernel_name) + " argument " + std::to_string(index));
+  // The message is built only on failure: this runs for every argument of every launch.
+  if (const cl_int err = clSetKernelArg(k, index, size, value); err != CL_SUCCESS)
+    check(err, "clSetKernelArg", std::string(kernel_name) + " argument " + std::to_string(index));
 }
 
 }  // namespace porta::opencl

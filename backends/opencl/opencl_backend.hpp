@@ -89,7 +89,8 @@ class OpenClBackend final : public Backend {
 
   // ---- for the kernel files ----
   /// Kernel `kernel_name` of program `program` (a file of shaders/opencl without ".cl"), created on
-  /// first use; the program is built then too.
+  /// first use; the program is built then too. Both names must outlive the backend (string
+  /// literals): later calls find the kernel by their addresses.
   cl_kernel kernel(const char* program, const char* kernel_name);
   /// Sets the arguments in order (a Buffer& passes its cl_mem, anything else by value) and enqueues.
   template <typename... Args>
@@ -148,7 +149,8 @@ class OpenClBackend final : public Backend {
   int queue_count_ = 1;
   int current_ = 0;
   std::map<std::string, cl_program> programs_;
-  std::map<std::string, cl_kernel> kernels_;
+  std::map<std::string, cl_kernel> kernels_;  // owns them; key: "program/kernel"
+  std::map<std::pair<const char*, const char*>, cl_kernel> kernels_by_address_;  // the same, by the names' addresses
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
   /// How many levels build_pyramid_fused builds in one launch: 32 x 8 tiles, 8 KiB regions (its
   /// PORTA_REGION_WORDS * 4).
