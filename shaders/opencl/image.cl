@@ -54,28 +54,46 @@ __kernel void rectify(__global const uchar* src, const porta_plane sp, __global 
 // §3.2 pyramid (DESIGN.md §3.2): one level from the level above, one work-item per destination
 // pixel; `table` + `table_offset` holds cols.src0, cols.w1 (W), rows.src0, rows.w1 (H) of this
 // level (ResizeTables::packed); value (wy0*(wx0*p00 + wx1*p10) + wy1*(wx0*p01 + wx1*p11) + 2^21) >> 22.
+// The source pixels and weights of pixel (x, y) of `level` from `above`.
+typedef struct {
+  int x0, x1, y0, y1;
+  uint wx0, wx1, wy0, wy1;
+} porta_resize_taps;
+
+porta_resize_taps porta_resize_taps_of(__global const int* table, int table_offset, const porta_plane above,
+                                       const porta_plane level, int x, int y) {
+  __global const int* col_src0 = table + table_offset;
+  __global const int* col_w1 = col_src0 + level.width;
+  __global const int* row_src0 = col_w1 + level.width;
+  __global const int* row_w1 = row_src0 + level.height;
+  porta_resize_taps t;
+  t.y0 = row_src0[y];
+  t.y1 = min(t.y0 + 1, above.height - 1);
+  t.wy1 = (uint)row_w1[y];
+  t.wy0 = 2048 - t.wy1;
+  t.x0 = col_src0[x];
+  t.x1 = min(t.x0 + 1, above.width - 1);
+  t.wx1 = (uint)col_w1[x];
+  t.wx0 = 2048 - t.wx1;
+  return t;
+}
+
+// The rounded value from the four source pixels: p00 at (x0, y0), p10 at (x1, y0), p01 at (x0, y1).
+uint porta_resize_value(const porta_resize_taps t, uint p00, uint p10, uint p01, uint p11) {
+  const uint sum = t.wy0 * (t.wx0 * p00 + t.wx1 * p10) + t.wy1 * (t.wx0 * p01 + t.wx1 * p11);
+  return (sum + (1u << 21)) >> 22;
+}
+
 __kernel void build_pyramid_level(__global uchar* pyramid, const porta_plane above, const porta_plane level,
                                   __global const int* table, const int table_offset) {
   const int j = (int)get_global_id(0);
   const int i = (int)get_global_id(1);
   if (j >= level.width || i >= level.height) return;
-  __global const int* col_src0 = table + table_offset;
-  __global const int* col_w1 = col_src0 + level.width;
-  __global const int* row_src0 = col_w1 + level.width;
-  __global const int* row_w1 = row_src0 + level.height;
-
-  const int y0 = row_src0[i];
-  const int y1 = min(y0 + 1, above.height - 1);
-  const uint wy1 = (uint)row_w1[i];
-  const uint wy0 = 2048 - wy1;
-  const int x0 = col_src0[j];
-  const int x1 = min(x0 + 1, above.width - 1);
-  const uint wx1 = (uint)col_w1[j];
-  const uint wx0 = 2048 - wx1;
-  __global const uchar* top = pyramid + above.offset_bytes + (long)y0 * above.pitch;
-  __global const uchar* bottom = pyramid + above.offset_bytes + (long)y1 * above.pitch;
-  const uint sum = wy0 * (wx0 * top[x0] + wx1 * top[x1]) + wy1 * (wx0 * bottom[x0] + wx1 * bottom[x1]);
-  pyramid[level.offset_bytes + (long)i * level.pitch + j] = (uchar)((sum + (1u << 21)) >> 22);
+  const porta_resize_taps t = porta_resize_taps_of(table, table_offset, above, level, j, i);
+  __global const uchar* top = pyramid + above.offset_bytes + (long)t.y0 * above.pitch;
+  __global const uchar* bottom = pyramid + above.offset_bytes + (long)t.y1 * above.pitch;
+  pyramid[level.offset_bytes + (long)i * level.pitch + j] =
+      (uchar)porta_resize_value(t, top[t.x0], top[t.x1], bottom[t.x0], bottom[t.x1]);
 }
 
 // §3.2 pyramid on GPUs, levels 1..m in one launch (as build_pyramid_level; the Vulkan shader
@@ -96,24 +114,11 @@ uint porta_pyramid_fetch(__global const uchar* pyramid, const porta_plane zero, 
 uint porta_pyramid_resample(__global const uchar* pyramid, const porta_plane zero, const porta_plane above,
                             const porta_plane level, __global const int* table, int table_offset,
                             __local const uint* region, int k, int stride, int xa, int ya, int x, int y) {
-  __global const int* col_src0 = table + table_offset;
-  __global const int* col_w1 = col_src0 + level.width;
-  __global const int* row_src0 = col_w1 + level.width;
-  __global const int* row_w1 = row_src0 + level.height;
-  const int y0 = row_src0[y];
-  const int y1 = min(y0 + 1, above.height - 1);
-  const uint wy1 = (uint)row_w1[y];
-  const uint wy0 = 2048 - wy1;
-  const int x0 = col_src0[x];
-  const int x1 = min(x0 + 1, above.width - 1);
-  const uint wx1 = (uint)col_w1[x];
-  const uint wx0 = 2048 - wx1;
-  const uint sum =
-      wy0 * (wx0 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x0, y0) +
-             wx1 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x1, y0)) +
-      wy1 * (wx0 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x0, y1) +
-             wx1 * porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, x1, y1));
-  return (sum + (1u << 21)) >> 22;
+  const porta_resize_taps t = porta_resize_taps_of(table, table_offset, above, level, x, y);
+  return porta_resize_value(t, porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, t.x0, t.y0),
+                            porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, t.x1, t.y0),
+                            porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, t.x0, t.y1),
+                            porta_pyramid_fetch(pyramid, zero, region, k, stride, xa, ya, t.x1, t.y1));
 }
 
 __kernel __attribute__((reqd_work_group_size(PORTA_TILE_W, PORTA_TILE_H, 1)))

@@ -36,25 +36,13 @@ uint fetch(int k, int base, int stride, int xa, int ya, int x, int y) {
   return (region[base + (i >> 2)] >> (8 * (i & 3))) & 255u;
 }
 
-// Pixel (x, y) of level k from level k - 1 (the formula of pyramid_common.glsl).
+#include "resize_taps.glsl"
+
+// Pixel (x, y) of level k from level k - 1.
 uint resample(int k, int base, int stride, int xa, int ya, int x, int y) {
-  const Plane above = p.planes.level[k - 1];
-  const Plane level = p.planes.level[k];
-  const int col_src0 = p.table_offset[k];
-  const int col_w1 = col_src0 + level.width;
-  const int row_src0 = col_w1 + level.width;
-  const int row_w1 = row_src0 + level.height;
-  const int y0 = table[row_src0 + y];
-  const int y1 = min(y0 + 1, above.height - 1);
-  const uint wy1 = uint(table[row_w1 + y]);
-  const uint wy0 = 2048u - wy1;
-  const int x0 = table[col_src0 + x];
-  const int x1 = min(x0 + 1, above.width - 1);
-  const uint wx1 = uint(table[col_w1 + x]);
-  const uint wx0 = 2048u - wx1;
-  const uint sum = wy0 * (wx0 * fetch(k, base, stride, xa, ya, x0, y0) + wx1 * fetch(k, base, stride, xa, ya, x1, y0)) +
-                   wy1 * (wx0 * fetch(k, base, stride, xa, ya, x0, y1) + wx1 * fetch(k, base, stride, xa, ya, x1, y1));
-  return (sum + (1u << 21)) >> 22;
+  const ResizeTaps t = resize_taps(p.table_offset[k], p.planes.level[k - 1], p.planes.level[k], x, y);
+  return resize_value(t, fetch(k, base, stride, xa, ya, t.x0, t.y0), fetch(k, base, stride, xa, ya, t.x1, t.y0),
+                      fetch(k, base, stride, xa, ya, t.x0, t.y1), fetch(k, base, stride, xa, ya, t.x1, t.y1));
 }
 
 void main() {
