@@ -16,7 +16,8 @@
 # by the host and in pinned input images (PORTA_PROFILE_BENCH_ARGS, default "--in-flight 1,4 --input
 # copy,pinned"), and once more for vulkan and opencl with one queue (PORTA_VULKAN_QUEUES=1,
 # PORTA_OPENCL_QUEUES=1: every call in order, results downloaded after the frame), the way they ran
-# before they had queues (frames-*-one-queue.txt).
+# before they had queues (frames-*-one-queue.txt), and with the pyramid's levels in one dispatch
+# (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on: frames-*-fused.txt, kernels-*-fused.txt).
 # Environment: PORTA_PROFILE_FRAMES (timed frames per cell, default 200; warm-up 20),
 # PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
 # PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh), PORTA_PROFILE_CELLS
@@ -73,6 +74,13 @@ for cell in "${cells[@]}"; do
     say "cell $name: per-kernel device time on $timed"
     "$binary" bench --backend "$timed" "${common[@]}" --profile-kernels --json "$out_dir/kernels-$name.json" \
       >"$out_dir/kernels-$name.txt" 2>>"$out_dir/bench.log" || status=1
+    say "cell $name: $timed with the pyramid in one dispatch (PORTA_*_FUSED_PYRAMID=on)"
+    PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on "$binary" bench --backend "$timed" "${common[@]}" \
+      "${bench_args[@]}" --json "$out_dir/frames-$name-fused.json" >"$out_dir/frames-$name-fused.txt" \
+      2>>"$out_dir/bench.log" || status=1
+    PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on "$binary" bench --backend "$timed" "${common[@]}" \
+      --profile-kernels --json "$out_dir/kernels-$name-fused.json" >"$out_dir/kernels-$name-fused.txt" \
+      2>>"$out_dir/bench.log" || status=1
   fi
 done
 
@@ -104,6 +112,9 @@ fi
     echo "one queue:"
     grep -E '^(vulkan|opencl) ' "$out_dir/frames-$name-one-queue.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name.txt" 2>/dev/null
+    echo "the pyramid in one dispatch (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on):"
+    grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-fused.txt" 2>/dev/null
+    sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-fused.txt" 2>/dev/null | grep -E "^(vulkan|opencl),|pyramid|^  all"
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then

@@ -35,10 +35,10 @@ void OpenClBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
          map, dst, to_cl(dst_plane));
 }
 
-// §3.2. GPUs: levels 1..m in one launch, a 32 x 8 work-group per tile of them
-// (build_pyramid_fused; m as far as each tile's regions fit in local memory, for 8 levels at
-// scale 1.2 all of them). The levels after m, and every level on CPU devices: one launch per
-// level, in order (each level reads the one above; the queue is in order).
+// §3.2. With $PORTA_OPENCL_FUSED_PYRAMID=on: levels 1..m in one launch, a 32 x 8 work-group per
+// tile of them (build_pyramid_fused; m as far as each tile's regions fit in local memory, for 8
+// levels at scale 1.2 all of them). The levels after m, and every level by default: one launch
+// per level, in order (each level reads the one above; the queue is in order).
 void OpenClBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                   const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();

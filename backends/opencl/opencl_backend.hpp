@@ -155,8 +155,7 @@ class OpenClBackend final : public Backend {
   /// How many levels build_pyramid_fused builds in one launch: 32 x 8 tiles, 8 KiB regions (its
   /// PORTA_REGION_WORDS * 4).
   checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
-  /// Whether build_pyramid fuses levels: with work_groups() unless $PORTA_OPENCL_FUSED_PYRAMID
-  /// (on or off) says otherwise.
+  /// Whether build_pyramid fuses levels ($PORTA_OPENCL_FUSED_PYRAMID=on; off by default).
   bool fused_pyramid_ = false;
   bool profile_kernels_ = false;
   bool work_groups_ = false;

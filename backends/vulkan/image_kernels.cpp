@@ -59,11 +59,11 @@ void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
       Work::grid(static_cast<std::uint64_t>(dst_plane.width), static_cast<std::uint64_t>(dst_plane.height)));
 }
 
-// §3.2. GPUs: levels 1..m in one dispatch, one workgroup per 32 x 8 tile of them
-// (build_pyramid_fused.comp; m as far as each tile's regions fit in shared memory, for 8 levels
-// at scale 1.2 all of them). The levels after m, and every level on CPU devices: one dispatch per
-// level, in order (each reads the level above; barriers between them), 32 x 8 workgroups on
-// GPUs, 8 x 8 elsewhere.
+// §3.2. With $PORTA_VULKAN_FUSED_PYRAMID=on: levels 1..m in one dispatch, one workgroup per
+// 32 x 8 tile of them (build_pyramid_fused.comp; m as far as each tile's regions fit in shared
+// memory, for 8 levels at scale 1.2 all of them). The levels after m, and every level by default:
+// one dispatch per level, in order (each reads the level above; barriers between them), 32 x 8
+// workgroups on GPUs, 8 x 8 elsewhere.
 void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                   const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();

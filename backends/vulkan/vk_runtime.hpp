@@ -125,7 +125,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   /// the next one back (0: never; kDefaultHoldDepth by default).
   void set_hold_depth(int depth) { hold_depth_ = depth; }
   int hold_depth() const { return hold_depth_; }
-  static constexpr int kDefaultHoldDepth = 2;
+  static constexpr int kDefaultHoldDepth = 1;
   static constexpr int kMaxHoldDepth = 4;
   /// Submits every pending batch and waits for all of them.
   void flush();

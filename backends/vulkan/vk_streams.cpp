@@ -225,10 +225,9 @@ void Runtime::start(bool hold) {
   // While the device has hold_depth_ batches of a queue still to run, a flushed batch for that
   // queue is held back, and the batches of later start()s on it are merged into it (their steps
   // side by side, as merge_pending does for a stereo pair): frames in flight then share barriers
-  // instead of each waiting for every earlier frame's. At depth 2 the device always has the next
-  // batch queued behind the running one, so it never waits for the host between the two, and
-  // what the host flushes meanwhile gathers in the held batch. A wait on the host that would leave
-  // the device without work submits it first (complete), so nothing is held while the device idles.
+  // instead of each waiting for every earlier frame's. At depth 1 (the default) a batch is held
+  // while one runs; at depth 2 the device also has the next one queued behind it. A wait on the
+  // host that would leave the device without work submits the held batch first (complete).
   const bool may_hold = hold && hold_depth_ > 0;
   for (std::size_t i = 0; i < streams_.size(); ++i) {
     Stream& s = streams_[i];

@@ -119,8 +119,7 @@ class VulkanBackend final : public Backend {
   /// (orient_per_item.comp), per 32 x 8 tile of all levels with shared memory (fast_tiled.comp,
   /// blur_tiled.comp: one dispatch where the blur had two), and PFA and compaction in one workgroup
   /// (pfa_group.comp, compact_group.comp) rather than three dispatches each: on GPUs that run
-  /// workgroups of 256, not on a CPU device (lavapipe), where they are slower; the pyramid's
-  /// levels in one dispatch (build_pyramid_fused.comp) rather than one dispatch per level.
+  /// workgroups of 256, not on a CPU device (lavapipe), where they are slower.
   /// $PORTA_VULKAN_WORK_GROUPS=on or off overrides (the equivalence suite runs both on lavapipe).
   /// The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
@@ -131,9 +130,8 @@ class VulkanBackend final : public Backend {
   /// How many levels build_pyramid_fused.comp builds in one dispatch: 32 x 8 tiles, 8 KiB regions
   /// (its REGION_WORDS * 4).
   checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
-  /// Whether build_pyramid fuses levels: with work_groups() unless $PORTA_VULKAN_FUSED_PYRAMID
-  /// (on or off) says otherwise.
-  bool fused_pyramid_ = true;
+  /// Whether build_pyramid fuses levels ($PORTA_VULKAN_FUSED_PYRAMID=on; off by default).
+  bool fused_pyramid_ = false;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };

@@ -230,15 +230,15 @@ vulkan::VulkanStats run_frames_in_flight(vulkan::VulkanBackend& backend) {
 // Frames in flight while the device is busy: start() holds a frame's batch back and merges later
 // frames' into it; the features are still the cpu backend's, frame by frame, and a held batch is
 // submitted when the host would otherwise wait on an idle device (collect), so nothing waits
-// forever. PORTA_VULKAN_HOLD_BATCHES sets how many unfinished batches make it hold (1 or the
-// default 2), or turns holding off.
+// forever. PORTA_VULKAN_HOLD_BATCHES sets how many unfinished batches make it hold (the default 1,
+// or 2), or turns holding off.
 TEST_F(VulkanBackendTest, Streams_FramesInFlightMergeWhileTheDeviceIsBusy) {
   const vulkan::VulkanStats held = run_frames_in_flight(*backend_);
   EXPECT_GT(held.held_batches, 0u) << "no frame was ever held back";
   EXPECT_GT(held.merged_batches, 0u) << "no held frame was merged with another";
 
   const char* variable = "PORTA_VULKAN_HOLD_BATCHES";
-  for (const char* value : {"1", "off"}) {
+  for (const char* value : {"2", "off"}) {
     SCOPED_TRACE(std::string(variable) + "=" + value);
     ::setenv(variable, value, 1);
     std::unique_ptr<vulkan::VulkanBackend> backend;
