@@ -90,6 +90,16 @@ frames/s"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_FUSED_PYRAMID=1)
   endif()
+  # porta_cl_enqueue_bench (bench/opencl) names a device it cannot find and exits 2.
+  if(TARGET porta_cl_enqueue_bench)
+    add_test(NAME cli.cl_enqueue_bench_missing_device
+             COMMAND ${CMAKE_COMMAND} -DEXPECT_EXIT=2
+                     "-DEXPECT_STDERR=porta_cl_enqueue_bench: PORTA_OPENCL_DEVICE 'no such device' names no device"
+                     -P ${porta_cli_checker} -- $<TARGET_FILE:porta_cl_enqueue_bench>
+             WORKING_DIRECTORY ${porta_cli_dir})
+    set_tests_properties(cli.cl_enqueue_bench_missing_device PROPERTIES LABELS cli TIMEOUT 300
+                         ENVIRONMENT "PORTA_OPENCL_DEVICE=no such device")
+  endif()
   if(TARGET porta_backend_vulkan)  # lavapipe in CI
     porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got 'yes'"
