@@ -79,6 +79,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.global_bundle_adjustment = options.global_ba;
   settings.mapping_threads = options.mapping_threads;
   settings.bundle_adjustment_every = options.ba_every;
+  settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.keyframe_queue_limit = options.keyframe_queue;
   settings.validate();
   return settings;
@@ -456,6 +457,8 @@ std::string slam_run_options_usage() {
          "                      local mapping (default 2; 0: never, as ORB-SLAM2)\n"
          "  --ba-every N        realtime: local BA on at least every Nth keyframe even while more\n"
          "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
+         "  --ba-tolerance X    realtime: local BA ends a stage when an iteration lowers its cost by\n"
+         "                      at most X of it, 0 < X < 1 (default 0.001; deterministic: 1e-6)\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
@@ -496,6 +499,11 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.keyframe_queue = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxKeyframeQueueLimit);
   } else if (option == "--ba-every") {
     options.ba_every = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentEvery);
+  } else if (option == "--ba-tolerance") {
+    const std::string text = cursor.value(option);
+    options.ba_tolerance = parse_double(option, text);
+    if (!(options.ba_tolerance > 0.0 && options.ba_tolerance < 1.0))
+      throw CliError("option --ba-tolerance expects a number above 0 and below 1, got '" + text + "'");
   } else if (option == "--mode") {
     const std::string mode = cursor.value(option);
     if (mode == "realtime") {

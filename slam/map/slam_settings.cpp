@@ -47,6 +47,9 @@ void SlamSettings::validate() const {
   require(bundle_adjustment_every >= 0 && bundle_adjustment_every <= kMaxBundleAdjustmentEvery,
           "bundle_adjustment_every must be in [0, " + std::to_string(kMaxBundleAdjustmentEvery) +
               "] (0 = only when no keyframe waits), got " + std::to_string(bundle_adjustment_every));
+  require(realtime_bundle_adjustment_tolerance > 0.0 && realtime_bundle_adjustment_tolerance < 1.0,
+          "realtime_bundle_adjustment_tolerance must be in (0, 1), got " +
+              std::to_string(realtime_bundle_adjustment_tolerance));
   place_recognition.validate();
 }
 

@@ -226,7 +226,9 @@ void LocalMapper::process(KeyFrame* keyframe) {
     }
     if (enough_keyframes) {
       mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, due ? &stop_requested_ : &abort_ba_,
-                                       [this] { pause_point(); }, pool);
+                                       [this] { pause_point(); }, pool,
+                                       realtime_ ? settings_.realtime_bundle_adjustment_tolerance
+                                                 : SlamSettings::kDeterministicBundleAdjustmentTolerance);
       times.bundle_adjustment_ran = true;
       times.bundle_adjustment_spread = pool != nullptr;
     }

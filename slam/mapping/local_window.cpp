@@ -89,7 +89,8 @@ BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, cons
 
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                             const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
-                            const std::function<void()>& between_iterations, cpu::ThreadPool* pool) {
+                            const std::function<void()>& between_iterations, cpu::ThreadPool* pool,
+                            double function_tolerance) {
   BaProblem problem;
   std::uint64_t generation = 0;
   {
@@ -102,6 +103,7 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
 
   optim::LocalBundleAdjustmentOptions options;
   options.stop_flag = stop_flag;
+  options.function_tolerance = function_tolerance;
   if (pool != nullptr && pool->size() > 1) {
     options.parallel_for = [pool](std::int64_t n, const std::function<void(std::int64_t)>& fn) {
       pool->parallel_for(0, n, fn);

@@ -71,11 +71,13 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
 
 /// Step 5 (locks the map itself): local bundle adjustment around `keyframe`; keyframe 0 is never
 /// moved. With a `pool` of more than one thread the solver's loops run on it (the same result).
-/// Returns the number of outlier observations erased.
+/// `function_tolerance`: LocalBundleAdjustmentOptions::function_tolerance. Returns the number of
+/// outlier observations erased.
 int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
                             const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
                             const std::function<void()>& between_iterations = {},
-                            cpu::ThreadPool* pool = nullptr);
+                            cpu::ThreadPool* pool = nullptr,
+                            double function_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance);
 
 /// A bundle adjustment copied out of the map under the lock, with the map objects each entry
 /// stands for (local and global bundle adjustment).

@@ -47,6 +47,10 @@ void validate_input(std::span<const BaKeyframe> keyframes, std::span<const Eigen
                                 std::to_string(options.num_threads) + " (must be in [1, " +
                                 std::to_string(kMaxThreads) + "])");
   }
+  if (!(options.function_tolerance > 0.0 && options.function_tolerance < 1.0)) {
+    throw std::invalid_argument("local_bundle_adjustment: options.function_tolerance = " +
+                                std::to_string(options.function_tolerance) + " (must be in (0, 1))");
+  }
   for (std::size_t i = 0; i < observations.size(); ++i) {
     const BaObservation& o = observations[i];
     const std::string where = "local_bundle_adjustment: observation " + std::to_string(i);
@@ -177,6 +181,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     input.chi2_mono = options.chi2_mono;
     input.chi2_stereo = options.chi2_stereo;
     input.max_iterations = iterations;
+    input.function_tolerance = options.function_tolerance;
     input.stop_flag = options.stop_flag;
     input.between_iterations = &options.between_iterations;
     input.parallel_for = &parallel_for;
@@ -214,6 +219,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
     }
     if (residual_blocks == 0) return false;
     ceres::Solver::Options solver_options = detail::quiet_solver_options(iterations, options.num_threads);
+    solver_options.function_tolerance = options.function_tolerance;
     solver_options.linear_solver_type =
         options.solver == BaSolver::ceres_sparse_schur ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;

@@ -40,7 +40,6 @@ constexpr double kMaxRadius = 1e16;
 constexpr double kMinDiagonal = 1e-6;
 constexpr double kMaxDiagonal = 1e32;
 constexpr double kMinRelativeDecrease = 1e-3;
-constexpr double kFunctionTolerance = 1e-6;
 constexpr double kParameterTolerance = 1e-8;
 constexpr double kGradientTolerance = 1e-10;
 
@@ -525,7 +524,7 @@ SchurSummary Solver::run() {
           const double rho = actual / predicted;
           radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
           decrease_factor = 2.0;
-          converged = actual <= kFunctionTolerance * cost;
+          converged = actual <= stage_.function_tolerance * cost;
           std::swap(poses_, candidate_poses);
           std::swap(points_, candidate_points);
           cost = candidate_cost;

@@ -7,7 +7,8 @@
 // that do not fit this problem: mixed 2- and 3-row residuals send Ceres to its dynamic-size
 // eliminator, and it rebuilds its program per solve. The step control is Ceres' Levenberg-Marquardt
 // (trust radius 1e4, diagonal clamped to [1e-6, 1e32], a step kept when it achieves 1e-3 of the
-// predicted decrease; function tolerance 1e-6, parameter tolerance 1e-8, gradient tolerance 1e-10),
+// predicted decrease; function tolerance the caller's (Ceres' 1e-6 by default), parameter
+// tolerance 1e-8, gradient tolerance 1e-10),
 // and a robust loss is applied as Ceres and g2o do with Huber: each residual block weighted by
 // rho'(chi2). Every sum is taken in one fixed order (schur_layout.hpp) however the work is split
 // over threads: the same input gives the same bits, on one thread or many.
@@ -34,6 +35,7 @@ struct SchurStage {
   bool robust = true;  ///< Huber of width sqrt(chi2_mono) / sqrt(chi2_stereo)
   double chi2_mono = 0.0, chi2_stereo = 0.0;
   int max_iterations = 0;  ///< steps tried, kept or not (Ceres' count)
+  double function_tolerance = 1e-6;  ///< a kept step lowering the cost by at most this fraction ends it
   const std::atomic<bool>* stop_flag = nullptr;
   const std::function<void()>* between_iterations = nullptr;
   const ParallelFor* parallel_for = nullptr;  ///< null or empty: everything on the calling thread

@@ -18,6 +18,9 @@ porta_cli_test(run_bad_ba_every EXIT 1 STDERR "option --ba-every expects an inte
                ARGS run --dataset kitti x --ba-every -1)
 porta_cli_test(run_bad_keyframe_queue EXIT 1 STDERR "option --keyframe-queue expects an integer in \\[0, 100\\], got '101'"
                ARGS run --dataset kitti x --keyframe-queue 101)
+porta_cli_test(run_bad_ba_tolerance EXIT 1
+               STDERR "option --ba-tolerance expects a number above 0 and below 1, got '1'"
+               ARGS run --dataset kitti x --ba-tolerance 1)
 porta_cli_test(run_bad_mapping_threads EXIT 1 STDERR "option --mapping-threads expects an integer in \\[0, 64\\], got '65'"
                ARGS run --dataset kitti x --mapping-threads 65)
 porta_cli_test(run_bad_rate EXIT 1 STDERR "option --rate expects a number in \\[0, 1000\\], got .-1." ARGS run --dataset kitti x --rate -1)

@@ -258,6 +258,17 @@ TEST(SlamSettings, BundleAdjustmentEveryIsBounded) {
   EXPECT_NO_THROW(settings.validate());
 }
 
+TEST(SlamSettings, RealtimeBundleAdjustmentToleranceIsInTheOpenUnitInterval) {
+  SlamSettings settings = test_settings();
+  EXPECT_EQ(settings.realtime_bundle_adjustment_tolerance, 1e-3) << "the default";
+  for (const double bad : {0.0, 1.0, -0.5, 2.0}) {
+    settings.realtime_bundle_adjustment_tolerance = bad;
+    EXPECT_THROW(settings.validate(), std::invalid_argument) << bad;
+  }
+  settings.realtime_bundle_adjustment_tolerance = 1e-6;
+  EXPECT_NO_THROW(settings.validate());
+}
+
 TEST(SlamSettings, KeyframeQueueLimitIsBounded) {
   SlamSettings settings = test_settings();
   EXPECT_EQ(settings.keyframe_queue_limit, 2) << "the default";
@@ -279,14 +290,17 @@ void wait_until_processed(const LocalMapper& mapper) {
 
 TEST(Mapping, RealtimeModeFedOneAtATimeGivesTheDeterministicMap) {
   // True by construction: with nothing else touching the map and each keyframe processed before the
-  // next arrives, the thread runs exactly the deterministic sequence of steps.
+  // next arrives, the thread runs exactly the deterministic sequence of steps, when its local BA
+  // stops where the deterministic mode's does (the realtime default, 1e-3, stops sooner).
   const SyntheticScene scene{SceneSpec{}};
   Map deterministic_map;
   LocalMapper deterministic(test_settings(), deterministic_map);
   run_deterministic(scene, scene.true_T_cw, deterministic_map, deterministic);
 
   Map map;
-  LocalMapper mapper(test_settings(), map);
+  SlamSettings realtime = test_settings();
+  realtime.realtime_bundle_adjustment_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance;
+  LocalMapper mapper(realtime, map);
   TrackingStandIn tracking(scene, map, mapper);
   mapper.start();
   EXPECT_THROW(mapper.process_all(), std::logic_error);

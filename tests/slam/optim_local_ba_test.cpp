@@ -260,6 +260,32 @@ TEST(OptimLocalBa, StopFlagClearedRunsToTheEnd) {
     EXPECT_TRUE(same_bits(with_flag.T_cw[k], without.T_cw[k]));
 }
 
+// A looser function tolerance ends the stages sooner (fewer iterations), near the same optimum:
+// its cost within 1 % of the tight run's (a stage stops once an iteration gains at most 1e-2 of
+// the cost), on both the Schur solver and Ceres'. A tolerance outside (0, 1) is refused.
+TEST(OptimLocalBa, LooserFunctionToleranceStopsSoonerNearTheSameOptimum) {
+  const Scene s = synthetic_scene(2, 26);
+  for (const BaSolver solver : {BaSolver::schur, BaSolver::ceres_dense_schur}) {
+    LocalBundleAdjustmentOptions tight, loose;
+    tight.solver = loose.solver = solver;
+    loose.function_tolerance = 1e-2;
+    const LocalBundleAdjustmentResult a =
+        local_bundle_adjustment(test_camera(), s.keyframes, s.points, s.observations, tight);
+    const LocalBundleAdjustmentResult b =
+        local_bundle_adjustment(test_camera(), s.keyframes, s.points, s.observations, loose);
+    EXPECT_LT(b.iterations, a.iterations) << static_cast<int>(solver);
+    EXPECT_LT(b.final_cost, b.initial_cost);
+    EXPECT_LT(b.final_cost, 1.01 * a.final_cost + 1e-9) << static_cast<int>(solver);
+  }
+  for (const double bad : {0.0, 1.0, -1e-3}) {
+    LocalBundleAdjustmentOptions options;
+    options.function_tolerance = bad;
+    EXPECT_THROW(local_bundle_adjustment(test_camera(), s.keyframes, s.points, s.observations, options),
+                 std::invalid_argument)
+        << bad;
+  }
+}
+
 TEST(OptimLocalBa, AllKeyframesFixedRefinesPointsOnly) {
   Scene s = synthetic_scene(6, 25);
   const LocalBundleAdjustmentResult r =

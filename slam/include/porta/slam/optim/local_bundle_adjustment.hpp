@@ -65,6 +65,9 @@ struct LocalBundleAdjustmentOptions {
   int second_iterations = 10;
   double chi2_mono = kChi2Mono95;
   double chi2_stereo = kChi2Stereo95;
+  /// A stage ends after an iteration that lowered the cost by at most this fraction of it
+  /// (Ceres' function_tolerance; its default 1e-6), in (0, 1).
+  double function_tolerance = 1e-6;
   /// Threads. Ceres' solvers: theirs (1 = deterministic). `schur`: a pool of this many for the
   /// call when `parallel_for` is empty (same result on any number; in [1, 256]).
   int num_threads = 1;
