@@ -114,6 +114,9 @@ std::vector<NamedTable> tables() {
       {"popcount 9", table_of([](unsigned m) { return std::popcount(m) == 9; })},
       {"popcount 1", table_of([](unsigned m) { return std::popcount(m) == 1; })},
       {"empty mask", table_of([](unsigned m) { return m == 0; })},
+      // Every accepted mask has bit 0 or 8 and bit 3 or 11, no other opposite pair: the vector
+      // step's pairs test then rejects on those two pairs only.
+      {"pairs 0 and 3", table_of([](unsigned m) { return (m & 0x0101u) && (m & 0x0808u) && std::popcount(m) >= 4; })},
       {"none", std::vector<std::uint8_t>(65536, 0)},
   };
 }
