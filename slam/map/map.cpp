@@ -143,7 +143,7 @@ void KeyFrame::update_connections(int min_weight) {
     }
   }
   if (counts.empty()) return;
-  std::map<KeyFrame*, int, ById> kept;
+  IdMap<KeyFrame, int> kept;
   KeyFrame* best = nullptr;
   int best_weight = 0;
   for (const auto& [other, weight] : counts) {
@@ -167,7 +167,7 @@ void KeyFrame::update_connections(int min_weight) {
 
 namespace {
 
-std::vector<std::pair<KeyFrame*, int>> by_weight(const std::map<KeyFrame*, int, ById>& connections) {
+std::vector<std::pair<KeyFrame*, int>> by_weight(const IdMap<KeyFrame, int>& connections) {
   std::vector<std::pair<KeyFrame*, int>> sorted(connections.begin(), connections.end());
   std::stable_sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
   return sorted;
@@ -317,7 +317,7 @@ void Map::set_bad(KeyFrame* keyframe) {
   // keyframe (the parent first) that keyframe as parent, as ORB-SLAM2 does.
   std::set<KeyFrame*, ById> candidates;
   if (keyframe->parent != nullptr) candidates.insert(keyframe->parent);
-  std::map<KeyFrame*, int, ById> orphans = keyframe->children;
+  IdMap<KeyFrame, int> orphans = keyframe->children;
   while (!orphans.empty()) {
     KeyFrame* best_child = nullptr;
     KeyFrame* best_parent = nullptr;

@@ -26,6 +26,7 @@
 
 #include "porta/keypoint.hpp"
 #include "porta/slam/frame.hpp"
+#include "porta/slam/id_map.hpp"
 
 namespace porta::slam {
 
@@ -59,7 +60,7 @@ class MapPoint {
   Descriptor descriptor;                        ///< the observation with the least median distance to the others
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< mean viewing direction (unit)
   double min_distance = 0.0, max_distance = 0.0;     ///< scale-invariance distance range
-  std::map<KeyFrame*, int, ById> observations;       ///< keyframe -> feature index
+  IdMap<KeyFrame, int> observations;            ///< keyframe -> feature index
   KeyFrame* reference = nullptr;
   const std::uint64_t first_keyframe_id;
   const std::uint64_t first_frame_id;
@@ -97,12 +98,12 @@ class KeyFrame {
   bool bad = false;
 
   // Covisibility graph: weight = number of map points seen by both keyframes.
-  std::map<KeyFrame*, int, ById> connections;
+  IdMap<KeyFrame, int> connections;
   KeyFrame* parent = nullptr;  ///< spanning tree: the keyframe it shares most points with (at creation)
-  std::map<KeyFrame*, int, ById> children;  ///< value unused (kept for ordered iteration)
+  IdMap<KeyFrame, int> children;  ///< value unused (kept for ordered iteration)
   /// Keyframes this one closed a loop with (both ways; value unused). Loop keyframes are never
   /// culled: the essential graph needs the edge.
-  std::map<KeyFrame*, int, ById> loop_edges;
+  IdMap<KeyFrame, int> loop_edges;
   /// Set when the keyframe is culled: its pose relative to its parent then (T_cw * T_parent_w^-1),
   /// so that frames that referred to it follow the parent through later corrections (ORB-SLAM2's Tcp).
   SE3 T_c_parent = SE3::Identity();
