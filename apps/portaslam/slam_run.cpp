@@ -34,6 +34,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// The nice value of the mapping and loop-closing threads as fast as possible (frontend_threads).
+constexpr int kUnpacedBackgroundNice = 10;
+
 struct Quantiles {
   double median_ms = 0.0, p95_ms = 0.0, mean_ms = 0.0;
   std::size_t count = 0;
@@ -74,15 +77,30 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   const bool paced = options.rate > 0.0;
   settings.mapping_thread_idle_priority = paced;
   settings.mapping_yields_to_tracking = paced;
+  // Unpaced, mapping and loop closing run at nice 10 on the core the frontend leaves them
+  // (frontend_threads): they use all of it, and yield it when the frame path wants two.
+  settings.background_thread_nice = paced ? 0 : kUnpacedBackgroundNice;
   settings.loop_closing = options.loop_closing && !options.localization;
   settings.localization_only = options.localization;
   settings.global_bundle_adjustment = options.global_ba;
   settings.mapping_threads = options.mapping_threads;
   settings.bundle_adjustment_every = options.ba_every;
+  settings.keyframes_while_mapping = options.keyframes_while_mapping;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.keyframe_queue_limit = options.keyframe_queue;
   settings.validate();
   return settings;
+}
+
+/// The cpu backend's worker threads: --threads, else all hardware threads, except as fast as
+/// possible in the realtime mode, where one is left to local mapping and loop closing. On 2 cores
+/// the frontend then runs on one thread, mapping on the other core at nice 10 (make_settings), and
+/// no frontend step waits for a worker that mapping pushed off its core: 50.0 against 46.6
+/// frames/s with both frontend threads and mapping at nice 0 (docs/BENCHMARKS.md).
+int frontend_threads(const SlamRunOptions& options) {
+  if (options.threads > 0) return options.threads;
+  if (options.rate > 0.0 || options.mode != slam::RunMode::realtime) return 0;  // 0: all
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
 }
 
 std::string format_ms(const Quantiles& q) {
@@ -115,7 +133,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   BackendOptions backend_options;
   backend_options.device = options.device;
-  backend_options.threads = options.threads;
+  backend_options.threads = frontend_threads(options);
   std::unique_ptr<Backend> backend = BackendRegistry::instance().create(options.backend, backend_options);
 
   std::printf("dataset   %s\n", dataset->describe().c_str());
@@ -450,7 +468,8 @@ std::string slam_run_options_usage() {
          "  --ground-truth FILE ground truth to evaluate against (any trajectory format)\n"
          "  --backend NAME      cpu (default), cuda, vulkan or opencl\n"
          "  --device D          device index or name substring for a GPU backend\n"
-         "  --threads N         cpu backend worker threads (default: all)\n"
+         "  --threads N         cpu backend worker threads (default: all; as fast as possible in\n"
+         "                      the realtime mode all but one, left to mapping)\n"
          "  --mapping-threads N local mapping's threads for triangulation and local BA (default 0:\n"
          "                      half the hardware threads, at most 8, with 8 or more; else 1); same map\n"
          "  --keyframe-queue N  realtime: tracking waits before a frame while N keyframes wait for\n"
@@ -459,6 +478,10 @@ std::string slam_run_options_usage() {
          "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
          "  --ba-tolerance X    realtime: local BA ends a stage when an iteration lowers its cost by\n"
          "                      at most X of it, 0 < X < 1 (default 0.001; deterministic: 1e-6)\n"
+         "  --keyframes-while-mapping on|off\n"
+         "                      realtime: a keyframe the scene needs is made while mapping is busy\n"
+         "                      and none waits (default on; off: only when mapping is idle, as\n"
+         "                      ORB-SLAM2)\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
@@ -497,6 +520,12 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.mapping_threads = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxMappingThreads);
   } else if (option == "--keyframe-queue") {
     options.keyframe_queue = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxKeyframeQueueLimit);
+  } else if (option == "--keyframes-while-mapping") {
+    const std::string value = cursor.value(option);
+    if (value != "on" && value != "off") {
+      throw CliError("--keyframes-while-mapping takes on or off, got '" + value + "'");
+    }
+    options.keyframes_while_mapping = value == "on";
   } else if (option == "--ba-every") {
     options.ba_every = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentEvery);
   } else if (option == "--ba-tolerance") {

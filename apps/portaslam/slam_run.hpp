@@ -20,6 +20,7 @@ struct SlamRunOptions {
   int threads = 0;                ///< cpu backend worker threads, 0 = all
   int mapping_threads = 0;        ///< SlamSettings::mapping_threads (0: by the machine)
   int ba_every = 4;               ///< SlamSettings::bundle_adjustment_every
+  bool keyframes_while_mapping = true;  ///< SlamSettings::keyframes_while_mapping
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
   int keyframe_queue = 2;         ///< SlamSettings::keyframe_queue_limit
   slam::RunMode mode = slam::RunMode::realtime;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "../system/thread_niceness.hpp"
 #include "loop_steps.hpp"
 #include "porta/slam/elapsed.hpp"
 
@@ -97,6 +98,7 @@ bool LoopCloser::busy() const {
 }
 
 void LoopCloser::thread_main() {
+  detail::set_thread_nice(settings_.background_thread_nice);
   for (;;) {
     KeyFrame* keyframe = nullptr;
     {

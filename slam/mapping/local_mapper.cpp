@@ -18,6 +18,7 @@
 
 #include "cpu/thread_pool.hpp"
 #include "mapping_steps.hpp"
+#include "../system/thread_niceness.hpp"
 #include "porta/slam/elapsed.hpp"
 
 namespace porta::slam {
@@ -134,6 +135,8 @@ void LocalMapper::thread_main() {
     sched_param param{};
     param.sched_priority = 0;
     (void)pthread_setschedparam(pthread_self(), SCHED_IDLE, &param);
+  } else {
+    detail::set_thread_nice(settings_.background_thread_nice);
   }
 #endif
   for (;;) {

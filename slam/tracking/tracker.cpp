@@ -407,6 +407,8 @@ bool Tracker::Impl::need_new_keyframe(const Frame& frame) const {
   const int min_observations = keyframes <= 2 ? 2 : 3;
   const int reference_matches = reference_keyframe->tracked_points(min_observations);
   const bool mapper_idle = mapper.accepts_keyframes();
+  // Busy with nothing queued counts as free (SlamSettings::keyframes_while_mapping).
+  const bool mapper_free = mapper_idle || (settings.keyframes_while_mapping && mapper.queued_keyframes() == 0);
 
   // Close stereo points (reliable depth): tracked ones, and ones a keyframe could turn into points.
   const FrameFeatures& f = *frame.features;
@@ -425,12 +427,13 @@ bool Tracker::Impl::need_new_keyframe(const Frame& frame) const {
 
   const bool max_frames_passed =
       frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.max_frames_between_keyframes);
-  const bool idle_and_passed = mapper_idle;  // min frames between keyframes: 0, as ORB-SLAM2 stereo
+  const bool idle_and_passed = mapper_free;  // min frames between keyframes: 0, as ORB-SLAM2 stereo
   const bool weak = local_map_inliers < 0.25 * reference_matches || need_close;
   const bool fewer_than_reference =
       (local_map_inliers < ratio * reference_matches || need_close) && local_map_inliers > 15;
   if (!((max_frames_passed || idle_and_passed || weak) && fewer_than_reference)) return false;
-  if (mapper_idle) return true;
+  // Idle, or busy with nothing queued: the keyframe waits for the step under way, which goes on.
+  if (mapper_free) return true;
   mapper.interrupt_bundle_adjustment();
   return mapper.queued_keyframes() < 3;
 }

@@ -6,6 +6,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <thread>
 
 #include "mapping_scene.hpp"
@@ -279,6 +283,62 @@ TEST(SlamSettings, KeyframeQueueLimitIsBounded) {
   settings.keyframe_queue_limit = 0;
   EXPECT_NO_THROW(settings.validate());
 }
+
+TEST(SlamSettings, BackgroundThreadNiceIsANiceValueAndKeyframesWhileMappingIsOn) {
+  SlamSettings settings = test_settings();
+  EXPECT_EQ(settings.background_thread_nice, 0) << "the default: the caller's";
+  EXPECT_TRUE(settings.keyframes_while_mapping) << "the default";
+  for (const int bad : {-1, -20, SlamSettings::kMaxNice + 1}) {
+    settings.background_thread_nice = bad;
+    EXPECT_THROW(settings.validate(), std::invalid_argument) << bad;
+  }
+  settings.background_thread_nice = SlamSettings::kMaxNice;
+  EXPECT_NO_THROW(settings.validate());
+}
+
+#if defined(__linux__)
+/// The nice values of this process's threads, from /proc/self/task/*/stat (field 19).
+std::vector<int> thread_nice_values() {
+  std::vector<int> out;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::ifstream in(task.path() / "stat");
+    std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t close = stat.rfind(')');  // the command name may hold spaces
+    if (close == std::string::npos) continue;
+    std::istringstream fields(stat.substr(close + 1));
+    std::string field;
+    for (int k = 3; k <= 19 && fields >> field; ++k) {
+      if (k == 19) out.push_back(std::stoi(field));
+    }
+  }
+  return out;
+}
+
+// Realtime, not at idle priority: the mapping thread runs at SlamSettings::background_thread_nice.
+TEST(Mapping, TheMappingThreadTakesTheBackgroundNiceValue) {
+  const std::vector<int> before = thread_nice_values();
+  ASSERT_FALSE(before.empty());
+  constexpr int kNice = 7;
+  if (*std::max_element(before.begin(), before.end()) >= kNice) {
+    GTEST_SKIP() << "this process already runs at nice " << *std::max_element(before.begin(), before.end())
+                 << ": a thread cannot be set to nice " << kNice << " below it without privileges";
+  }
+  Map map;
+  SlamSettings settings = test_settings();
+  settings.mapping_thread_idle_priority = false;
+  settings.background_thread_nice = kNice;
+  LocalMapper mapper(settings, map);
+  mapper.start();
+  bool found = false;
+  for (int tries = 0; tries < 2000 && !found; ++tries) {
+    const std::vector<int> now = thread_nice_values();
+    found = std::count(now.begin(), now.end(), kNice) == 1;
+    if (!found) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  mapper.stop();
+  EXPECT_TRUE(found) << "no thread of this process at nice " << kNice << " while the mapper ran";
+}
+#endif
 
 /// Waits until the mapping thread has processed everything queued (queue first, then idle: the
 /// thread clears idle under the queue lock when it takes a keyframe).

@@ -1,0 +1,12 @@
+// The calling thread's nice value (SlamSettings::background_thread_nice), for the mapping and
+// loop-closing threads.
+#pragma once
+
+namespace porta::slam::detail {
+
+/// Linux: sets the calling thread's nice value to `nice` (> 0 lowers its share of a busy core
+/// against the frame path's threads; 0 leaves it as it is). Best effort: a refusal leaves the
+/// thread as it was. Elsewhere: nothing.
+void set_thread_nice(int nice);
+
+}  // namespace porta::slam::detail
