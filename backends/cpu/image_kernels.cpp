@@ -81,13 +81,27 @@ PORTA_CPU_HOT void blur_row(const BlurRows& rows, int width, const BlurTaps& tap
                             std::uint8_t* out) {
   const std::array<const std::uint8_t*, 7> r = rows.r;
   const std::array<std::uint16_t, 7> t = taps.v;
+  // A Gaussian's taps are symmetric (t_k = t_{6-k}, build_blur_taps()): then each pass adds the
+  // mirrored pixels first and multiplies four times instead of seven. The sum is the same integer
+  // (every term is non-negative and the total fits, so no partial sum wraps).
+  const bool symmetric = t[0] == t[6] && t[1] == t[5] && t[2] == t[4];
 
   // Vertical pass: padded[x + 3] = sum_k t_k * r[k][x], exact in uint16 since the taps sum to 256:
   // at most 256 * 255 = 65 280.
-  for (int x = 0; x < width; ++x) {
-    std::uint16_t sum = 0;
-    for (int k = 0; k < 7; ++k) sum = static_cast<std::uint16_t>(sum + t[k] * r[k][x]);
-    padded[x + 3] = sum;
+  if (symmetric) {
+    const std::uint16_t t0 = t[0], t1 = t[1], t2 = t[2], t3 = t[3];
+    for (int x = 0; x < width; ++x) {
+      const auto s0 = static_cast<std::uint16_t>(r[0][x] + r[6][x]);
+      const auto s1 = static_cast<std::uint16_t>(r[1][x] + r[5][x]);
+      const auto s2 = static_cast<std::uint16_t>(r[2][x] + r[4][x]);
+      padded[x + 3] = static_cast<std::uint16_t>(t0 * s0 + t1 * s1 + t2 * s2 + t3 * r[3][x]);
+    }
+  } else {
+    for (int x = 0; x < width; ++x) {
+      std::uint16_t sum = 0;
+      for (int k = 0; k < 7; ++k) sum = static_cast<std::uint16_t>(sum + t[k] * r[k][x]);
+      padded[x + 3] = sum;
+    }
   }
 
   // Borders: columns -3..-1 and width..width+2 mirror the row (reflect-101, also for widths < 4,
@@ -100,6 +114,17 @@ PORTA_CPU_HOT void blur_row(const BlurRows& rows, int width, const BlurTaps& tap
   // Horizontal pass: out[x] = (sum_k t_k * padded[x + k] + 2^15) >> 16, in uint32: at most
   // 256 * 65 280 + 2^15 < 2^24, and the quotient fits a byte.
   const std::array<std::uint32_t, 7> t32 = {t[0], t[1], t[2], t[3], t[4], t[5], t[6]};
+  if (symmetric) {
+    const std::uint32_t t0 = t32[0], t1 = t32[1], t2 = t32[2], t3 = t32[3];
+    for (int x = 0; x < width; ++x) {
+      const std::uint32_t s0 = std::uint32_t{padded[x]} + padded[x + 6];
+      const std::uint32_t s1 = std::uint32_t{padded[x + 1]} + padded[x + 5];
+      const std::uint32_t s2 = std::uint32_t{padded[x + 2]} + padded[x + 4];
+      const std::uint32_t sum = t0 * s0 + t1 * s1 + t2 * s2 + t3 * padded[x + 3];
+      out[x] = static_cast<std::uint8_t>((sum + (1u << 15)) >> 16);
+    }
+    return;
+  }
   for (int x = 0; x < width; ++x) {
     std::uint32_t sum = 0;
     for (int k = 0; k < 7; ++k) sum += t32[k] * padded[x + k];

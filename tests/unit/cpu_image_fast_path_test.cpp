@@ -112,7 +112,9 @@ void expect_blur_matches_scalar(cpu::CpuBackend& backend, const std::vector<Imag
 std::vector<Taps> tap_sets() {
   std::vector<Taps> sets = {build_blur_taps(),           {256, 0, 0, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0, 256},
                             {0, 0, 0, 256, 0, 0, 0},     {1, 2, 3, 4, 5, 6, 235}, {100, 0, 50, 0, 6, 0, 100},
-                            {37, 37, 37, 37, 37, 37, 34}};
+                            {37, 37, 37, 37, 37, 37, 34},
+                            // Symmetric (the mirrored-pairs path), with the extreme outer taps.
+                            {128, 0, 0, 0, 0, 0, 128},   {60, 20, 10, 76, 10, 20, 60}};
   std::mt19937 rng(42);
   for (int s = 0; s < 4; ++s) {
     Taps t{};
