@@ -27,17 +27,20 @@ void check_keypoints(const char* call, const Keypoint* keypoints, int count, con
   checks::check_8bit_pixels(kBackend, call, layout);
   for (int i = 0; i < count; ++i) {
     const Keypoint& kp = keypoints[i];
-    const std::string which = "keypoint " + std::to_string(i) + " (" + std::to_string(kp.x) + ", " +
-                              std::to_string(kp.y) + ", level " + std::to_string(kp.level) + ")";
+    // Named only when one fails (this runs over every keypoint of every frame).
+    const auto which_one = [&] {
+      return "keypoint " + std::to_string(i) + " (" + std::to_string(kp.x) + ", " + std::to_string(kp.y) +
+             ", level " + std::to_string(kp.level) + ")";
+    };
     if (kp.level >= layout.num_levels())
       fail(call,
-           which + " names a level outside the " + std::to_string(layout.num_levels()) + "-level pyramid");
+           which_one() + " names a level outside the " + std::to_string(layout.num_levels()) + "-level pyramid");
     const Plane& plane = layout.levels[kp.level];
     if (kp.x < reach || kp.y < reach || kp.x + reach >= plane.width || kp.y + reach >= plane.height)
-      fail(call, which + " is closer than " + std::to_string(reach) + " px to the border of its " +
+      fail(call, which_one() + " is closer than " + std::to_string(reach) + " px to the border of its " +
                      std::to_string(plane.width) + "x" + std::to_string(plane.height) + " level");
     if (bins > 0 && kp.angle_bin >= bins)
-      fail(call, which + " has angle bin " + std::to_string(kp.angle_bin) + " outside [0, " +
+      fail(call, which_one() + " has angle bin " + std::to_string(kp.angle_bin) + " outside [0, " +
                      std::to_string(bins) + ")");
   }
 }
