@@ -34,8 +34,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// The nice value of the mapping and loop-closing threads as fast as possible (frontend_threads).
-constexpr int kUnpacedBackgroundNice = 10;
+/// The nice values of the mapping and loop-closing threads as fast as possible (frontend_threads).
+constexpr int kUnpacedMappingNice = 5;
+constexpr int kUnpacedLoopClosingNice = 19;
 
 struct Quantiles {
   double median_ms = 0.0, p95_ms = 0.0, mean_ms = 0.0;
@@ -77,9 +78,10 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   const bool paced = options.rate > 0.0;
   settings.mapping_thread_idle_priority = paced;
   settings.mapping_yields_to_tracking = paced;
-  // Unpaced, mapping and loop closing run at nice 10 on the core the frontend leaves them
-  // (frontend_threads): they use all of it, and yield it when the frame path wants two.
-  settings.background_thread_nice = paced ? 0 : kUnpacedBackgroundNice;
+  // Unpaced, mapping and loop closing share the core the frontend leaves them (frontend_threads),
+  // mapping first, and yield it when the frame path wants two.
+  settings.mapping_thread_nice = paced ? 0 : kUnpacedMappingNice;
+  settings.loop_closing_thread_nice = paced ? 0 : kUnpacedLoopClosingNice;
   settings.loop_closing = options.loop_closing && !options.localization;
   settings.localization_only = options.localization;
   settings.global_bundle_adjustment = options.global_ba;
@@ -94,9 +96,9 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
 
 /// The cpu backend's worker threads: --threads, else all hardware threads, except as fast as
 /// possible in the realtime mode, where one is left to local mapping and loop closing. On 2 cores
-/// the frontend then runs on one thread, mapping on the other core at nice 10 (make_settings), and
-/// no frontend step waits for a worker that mapping pushed off its core: 50.0 against 46.6
-/// frames/s with both frontend threads and mapping at nice 0 (docs/BENCHMARKS.md).
+/// the frontend then runs on one thread, mapping on the other core at nice 5 and loop closing at
+/// 19 (make_settings), and no frontend step waits for a worker that mapping pushed off its core
+/// (docs/BENCHMARKS.md: the frame rate and the keyframes both rose).
 int frontend_threads(const SlamRunOptions& options) {
   if (options.threads > 0) return options.threads;
   if (options.rate > 0.0 || options.mode != slam::RunMode::realtime) return 0;  // 0: all

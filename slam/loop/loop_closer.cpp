@@ -98,7 +98,7 @@ bool LoopCloser::busy() const {
 }
 
 void LoopCloser::thread_main() {
-  detail::set_thread_nice(settings_.background_thread_nice);
+  detail::set_thread_nice(settings_.loop_closing_thread_nice);
   for (;;) {
     KeyFrame* keyframe = nullptr;
     {

@@ -41,9 +41,12 @@ void SlamSettings::validate() const {
   require(mapping_threads >= 0 && mapping_threads <= kMaxMappingThreads,
           "mapping_threads must be in [0, " + std::to_string(kMaxMappingThreads) + "] (0 = by the machine), got " +
               std::to_string(mapping_threads));
-  require(background_thread_nice >= 0 && background_thread_nice <= kMaxNice,
-          "background_thread_nice must be in [0, " + std::to_string(kMaxNice) + "], got " +
-              std::to_string(background_thread_nice));
+  require(mapping_thread_nice >= 0 && mapping_thread_nice <= kMaxNice,
+          "mapping_thread_nice must be in [0, " + std::to_string(kMaxNice) + "], got " +
+              std::to_string(mapping_thread_nice));
+  require(loop_closing_thread_nice >= 0 && loop_closing_thread_nice <= kMaxNice,
+          "loop_closing_thread_nice must be in [0, " + std::to_string(kMaxNice) + "], got " +
+              std::to_string(loop_closing_thread_nice));
   require(keyframe_queue_limit >= 0 && keyframe_queue_limit <= kMaxKeyframeQueueLimit,
           "keyframe_queue_limit must be in [0, " + std::to_string(kMaxKeyframeQueueLimit) +
               "] (0 = tracking never waits for mapping), got " + std::to_string(keyframe_queue_limit));

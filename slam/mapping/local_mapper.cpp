@@ -136,7 +136,7 @@ void LocalMapper::thread_main() {
     param.sched_priority = 0;
     (void)pthread_setschedparam(pthread_self(), SCHED_IDLE, &param);
   } else {
-    detail::set_thread_nice(settings_.background_thread_nice);
+    detail::set_thread_nice(settings_.mapping_thread_nice);
   }
 #endif
   for (;;) {

@@ -1,5 +1,4 @@
-// The calling thread's nice value (SlamSettings::background_thread_nice), for the mapping and
-// loop-closing threads.
+// The calling thread's nice value (SlamSettings::mapping_thread_nice, loop_closing_thread_nice).
 #pragma once
 
 namespace porta::slam::detail {

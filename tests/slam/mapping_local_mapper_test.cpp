@@ -284,16 +284,19 @@ TEST(SlamSettings, KeyframeQueueLimitIsBounded) {
   EXPECT_NO_THROW(settings.validate());
 }
 
-TEST(SlamSettings, BackgroundThreadNiceIsANiceValueAndKeyframesWhileMappingIsOn) {
+TEST(SlamSettings, ThreadNiceValuesAreNiceValuesAndKeyframesWhileMappingIsOn) {
   SlamSettings settings = test_settings();
-  EXPECT_EQ(settings.background_thread_nice, 0) << "the default: the caller's";
+  EXPECT_EQ(settings.mapping_thread_nice, 0) << "the default: the caller's";
+  EXPECT_EQ(settings.loop_closing_thread_nice, 0) << "the default: the caller's";
   EXPECT_TRUE(settings.keyframes_while_mapping) << "the default";
-  for (const int bad : {-1, -20, SlamSettings::kMaxNice + 1}) {
-    settings.background_thread_nice = bad;
-    EXPECT_THROW(settings.validate(), std::invalid_argument) << bad;
+  for (int* field : {&settings.mapping_thread_nice, &settings.loop_closing_thread_nice}) {
+    for (const int bad : {-1, -20, SlamSettings::kMaxNice + 1}) {
+      *field = bad;
+      EXPECT_THROW(settings.validate(), std::invalid_argument) << bad;
+    }
+    *field = SlamSettings::kMaxNice;
+    EXPECT_NO_THROW(settings.validate());
   }
-  settings.background_thread_nice = SlamSettings::kMaxNice;
-  EXPECT_NO_THROW(settings.validate());
 }
 
 #if defined(__linux__)
@@ -314,7 +317,7 @@ std::vector<int> thread_nice_values() {
   return out;
 }
 
-// Realtime, not at idle priority: the mapping thread runs at SlamSettings::background_thread_nice.
+// Realtime, not at idle priority: the mapping thread runs at SlamSettings::mapping_thread_nice.
 TEST(Mapping, TheMappingThreadTakesTheBackgroundNiceValue) {
   const std::vector<int> before = thread_nice_values();
   ASSERT_FALSE(before.empty());
@@ -326,7 +329,7 @@ TEST(Mapping, TheMappingThreadTakesTheBackgroundNiceValue) {
   Map map;
   SlamSettings settings = test_settings();
   settings.mapping_thread_idle_priority = false;
-  settings.background_thread_nice = kNice;
+  settings.mapping_thread_nice = kNice;
   LocalMapper mapper(settings, map);
   mapper.start();
   bool found = false;

@@ -43,11 +43,13 @@ struct SlamSettings {
   /// Realtime mode, Linux: the mapping thread runs at idle priority (SCHED_IDLE), so that it uses
   /// the cores tracking leaves free and never delays a frame. false: the caller's priority.
   bool mapping_thread_idle_priority = true;
-  /// Realtime mode, Linux, when not at idle priority: the nice value of the mapping and loop-closing
-  /// threads, in [0, 19] (0 = the caller's). As fast as possible on 2 cores `run` sets 10: with
-  /// its frontend on one thread, the frame path then keeps its core and mapping takes the other
-  /// (docs/BENCHMARKS.md: 46.6 -> 50.0 frames/s, medians of 5).
-  int background_thread_nice = 0;
+  /// Realtime mode, Linux: the nice values of the mapping thread (when not at idle priority) and of
+  /// the loop-closing thread, each in [0, 19] (0 = the caller's). As fast as possible `run` sets 5
+  /// and 19, with its cpu frontend on all hardware threads but one: on 2 cores the frame path then
+  /// keeps one core, mapping takes most of the other and loop closing, which nothing waits for, the
+  /// rest (docs/BENCHMARKS.md: 46.6 -> 53.5 frames/s and 474 keyframes, medians).
+  int mapping_thread_nice = 0;
+  int loop_closing_thread_nice = 0;
   static constexpr int kMaxNice = 19;
   /// Realtime mode: a keyframe the scene needs (tracking fell below 75 % of the reference
   /// keyframe's points, or too few close points) is also made while local mapping is busy, as
