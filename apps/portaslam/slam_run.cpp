@@ -149,6 +149,16 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     std::printf("playback  %.3gx the recorded frame rate (frames are handed over at their time stamps)\n",
                 options.rate);
   }
+  if (options.mode == slam::RunMode::realtime) {
+    if (settings.mapping_thread_idle_priority) {
+      std::printf("threads   mapping at idle priority, pausing while a frame is tracked; loop closing at nice %d\n",
+                  settings.loop_closing_thread_nice);
+    } else {
+      std::printf("threads   mapping at nice %d, loop closing at nice %d; keyframes while mapping: %s\n",
+                  settings.mapping_thread_nice, settings.loop_closing_thread_nice,
+                  settings.keyframes_while_mapping ? "on" : "off");
+    }
+  }
   std::fflush(stdout);
 
   double summary_map_load_ms = 0.0;
