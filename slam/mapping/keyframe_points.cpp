@@ -4,8 +4,6 @@
 
 namespace porta::slam::mapping {
 
-int descriptor_distance(const Descriptor& a, const Descriptor& b) { return hamming_distance(a, b); }
-
 std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
                                             const ScalePyramid& pyramid) {
   // A keyframe links ~1 000 points (a descriptor and a normal each): ~1 ms under the lock on a
