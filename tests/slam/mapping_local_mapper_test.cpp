@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "mapping_scene.hpp"
+#include "porta/slam/loop_closer.hpp"
 
 namespace porta::slam::mapping_test {
 namespace {
@@ -317,29 +318,49 @@ std::vector<int> thread_nice_values() {
   return out;
 }
 
-// Realtime, not at idle priority: the mapping thread runs at SlamSettings::mapping_thread_nice.
-TEST(Mapping, TheMappingThreadTakesTheBackgroundNiceValue) {
+/// Starts a thread with `start`, and says whether, while it runs, exactly one thread of this
+/// process is at nice `nice`; then `stop`.
+template <class Start, class Stop>
+::testing::AssertionResult a_thread_runs_at_nice(int nice, Start&& start, Stop&& stop) {
   const std::vector<int> before = thread_nice_values();
-  ASSERT_FALSE(before.empty());
-  constexpr int kNice = 7;
-  if (*std::max_element(before.begin(), before.end()) >= kNice) {
-    GTEST_SKIP() << "this process already runs at nice " << *std::max_element(before.begin(), before.end())
-                 << ": a thread cannot be set to nice " << kNice << " below it without privileges";
+  if (std::count(before.begin(), before.end(), nice) != 0) {
+    return ::testing::AssertionFailure() << "a thread already runs at nice " << nice;
   }
-  Map map;
-  SlamSettings settings = test_settings();
-  settings.mapping_thread_idle_priority = false;
-  settings.mapping_thread_nice = kNice;
-  LocalMapper mapper(settings, map);
-  mapper.start();
+  start();
   bool found = false;
   for (int tries = 0; tries < 2000 && !found; ++tries) {
     const std::vector<int> now = thread_nice_values();
-    found = std::count(now.begin(), now.end(), kNice) == 1;
+    found = std::count(now.begin(), now.end(), nice) == 1;
     if (!found) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  mapper.stop();
-  EXPECT_TRUE(found) << "no thread of this process at nice " << kNice << " while the mapper ran";
+  stop();
+  if (!found) return ::testing::AssertionFailure() << "no thread of this process at nice " << nice;
+  return ::testing::AssertionSuccess();
+}
+
+/// Skips the calling test when this process already runs at `nice` or above: a thread cannot go
+/// below its process's nice value without privileges.
+#define PORTA_SKIP_WHEN_NICE_AT_LEAST(nice)                                                        \
+  do {                                                                                             \
+    const std::vector<int> values = thread_nice_values();                                          \
+    ASSERT_FALSE(values.empty());                                                                  \
+    const int highest = *std::max_element(values.begin(), values.end());                           \
+    if (highest >= (nice)) GTEST_SKIP() << "this process already runs at nice " << highest;        \
+  } while (false)
+
+// Realtime, not at idle priority: the mapping thread runs at SlamSettings::mapping_thread_nice,
+// the loop-closing thread at loop_closing_thread_nice.
+TEST(Mapping, TheMappingAndLoopClosingThreadsRunAtTheirNiceValues) {
+  PORTA_SKIP_WHEN_NICE_AT_LEAST(7);
+  Map map;
+  SlamSettings settings = test_settings();
+  settings.mapping_thread_idle_priority = false;
+  settings.mapping_thread_nice = 6;
+  settings.loop_closing_thread_nice = 7;
+  LocalMapper mapper(settings, map);
+  EXPECT_TRUE(a_thread_runs_at_nice(6, [&] { mapper.start(); }, [&] { mapper.stop(); }));
+  LoopCloser closer(settings, map);
+  EXPECT_TRUE(a_thread_runs_at_nice(7, [&] { closer.start(); }, [&] { closer.stop(); }));
 }
 #endif
 
