@@ -47,7 +47,8 @@ struct SlamSettings {
   /// the loop-closing thread, each in [0, 19] (0 = the caller's). As fast as possible `run` sets 5
   /// and 19, with its cpu frontend on all hardware threads but one: on 2 cores the frame path then
   /// keeps one core, mapping takes most of the other and loop closing, which nothing waits for, the
-  /// rest (docs/BENCHMARKS.md: 46.6 -> 53.5 frames/s and 474 keyframes, medians).
+  /// rest (docs/BENCHMARKS.md: with two frontend threads and nice 0, 46.6 frames/s; one thread and
+  /// nice 10, 50.0; medians of 5 on 2 cores).
   int mapping_thread_nice = 0;
   int loop_closing_thread_nice = 0;
   static constexpr int kMaxNice = 19;
@@ -56,8 +57,8 @@ struct SlamSettings {
   /// long as no keyframe waits for it (it waits for the step under way, which is not interrupted).
   /// ORB-SLAM2 makes it only when mapping is idle, so as fast as possible, where mapping
   /// is never idle, the keyframes depended on the frame rate (368-377 of 1 000 frames on 2 cores
-  /// against 474 deterministic, and an RPE 6-12 % above ORB-SLAM2's); with this, 441-460. false:
-  /// ORB-SLAM2's rule.
+  /// against 474 deterministic, and an RPE 6-12 % above ORB-SLAM2's); with this, 465-471 (RPE
+  /// 0.0101 -> 0.0090 m). false: ORB-SLAM2's rule.
   bool keyframes_while_mapping = true;
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
