@@ -142,8 +142,11 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
                         nullptr),
         "clGetDeviceInfo(CL_DEVICE_MAX_WORK_GROUP_SIZE)", device_.label());
   work_groups_ = checks::env_switch("opencl", "PORTA_OPENCL_WORK_GROUPS", device_.is_gpu && max_work_group_ >= 256);
-  // Off by default until measured on a GPU (the bytes are the suite's, on PoCL).
-  fused_pyramid_ = checks::env_switch("opencl", "PORTA_OPENCL_FUSED_PYRAMID", false);
+  // On by default where the work-group kernels run (GPUs): one launch per image instead of one per
+  // level, which the NVIDIA driver's ~5 us per enqueue makes pay with frames in flight (H200: 4 in
+  // flight, stereo 313 -> 245 us per pair). On CPU devices (PoCL) a work-group per tile of every
+  // level runs at half the speed of a launch per level, so off there (docs/BENCHMARKS.md).
+  fused_pyramid_ = checks::env_switch("opencl", "PORTA_OPENCL_FUSED_PYRAMID", work_groups_);
 }
 
 OpenClBackend::~OpenClBackend() {

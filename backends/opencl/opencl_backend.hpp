@@ -113,6 +113,9 @@ class OpenClBackend final : public Backend {
   /// pay; a CPU device (PoCL) runs work-items as loops, and there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
   /// runs both kinds on PoCL). The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
+  /// Whether build_pyramid builds levels 1..m in one launch (build_pyramid_fused): by default
+  /// where work_groups() is on; $PORTA_OPENCL_FUSED_PYRAMID=on or off overrides.
+  bool fused_pyramid() const { return fused_pyramid_; }
   /// CL_DEVICE_MAX_WORK_GROUP_SIZE.
   std::size_t max_work_group() const { return max_work_group_; }
 
@@ -155,7 +158,8 @@ class OpenClBackend final : public Backend {
   /// How many levels build_pyramid_fused builds in one launch: 32 x 8 tiles, 8 KiB regions (its
   /// PORTA_REGION_WORDS * 4).
   checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
-  /// Whether build_pyramid fuses levels ($PORTA_OPENCL_FUSED_PYRAMID=on; off by default).
+  /// Whether build_pyramid fuses levels ($PORTA_OPENCL_FUSED_PYRAMID=on|off; by default where the
+  /// work-group kernels run, i.e. on GPUs).
   bool fused_pyramid_ = false;
   bool profile_kernels_ = false;
   bool work_groups_ = false;
