@@ -6,6 +6,9 @@
 // d_e from the line itself. Within w of the line therefore means |sin(theta - phi)| < (w + d_e) / r
 // <= (w + d_e) / r_ring for every point of a ring with inner radius r_ring. Directions are taken
 // modulo pi (a line has no sense), and the reach adds one pixel so that rounding only widens it.
+// The window's half-width is bounded from above by tan(asin x) = x / sqrt(1 - x^2) >= asin x (no
+// asin per ring and query), and its ends are rounded outwards to the ring's direction buckets:
+// both only widen the window, so the caller's exact test still sees every point a scan would.
 #include "epipolar_pencil_index.hpp"
 
 #include <algorithm>
@@ -20,6 +23,8 @@ namespace {
 constexpr double kRoundingMarginPx = 1.0;
 constexpr double kFarEpipolePx = 1e6;
 constexpr double kAngleMargin = 1e-9;
+/// Widens a bucket lookup by this fraction of a bucket, against rounding at the boundaries.
+constexpr double kBucketMargin = 1e-6;
 /// Inner radii of the rings, px; the first ring is always visited whole.
 constexpr double kRingRadii[] = {0.0, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0};
 static_assert(std::size(kRingRadii) == EpipolarPencilIndex::kRings);
@@ -74,13 +79,23 @@ EpipolarPencilIndex::EpipolarPencilIndex(std::span<const double> u, std::span<co
     if (direction[sa] != direction[sb]) return direction[sa] < direction[sb];
     return a < b;
   });
-  direction_.resize(n);
+  std::vector<double> sorted_direction(n);
   for (std::size_t k = 0; k < n; ++k) {
     const auto j = static_cast<std::size_t>(order_[k]);
-    direction_[k] = direction[j];
+    sorted_direction[k] = direction[j];
     ++ring_start_[static_cast<std::size_t>(ring[j]) + 1];
   }
   for (std::size_t r = 1; r <= rings; ++r) ring_start_[r] += ring_start_[r - 1];
+  bucket_start_.resize(rings * (kBuckets + 1));
+  for (std::size_t r = 0; r < rings; ++r) {
+    const auto begin = sorted_direction.begin() + ring_start_[r], end = sorted_direction.begin() + ring_start_[r + 1];
+    for (std::size_t b = 0; b < kBuckets; ++b) {
+      const double angle = std::numbers::pi * static_cast<double>(b) / static_cast<double>(kBuckets);
+      bucket_start_[r * (kBuckets + 1) + b] =
+          static_cast<int>(std::lower_bound(begin, end, angle) - sorted_direction.begin());
+    }
+    bucket_start_[r * (kBuckets + 1) + kBuckets] = ring_start_[r + 1];
+  }
 }
 
 int EpipolarPencilIndex::band_ranges(const Eigen::Vector3d& line, Ranges& ranges) const {
@@ -99,33 +114,47 @@ int EpipolarPencilIndex::band_ranges(const Eigen::Vector3d& line, Ranges& ranges
   const double epipole_distance = std::abs(a * epipole_.x() + b * epipole_.y() + c) / norm;
   const double reach = reach_px_ + epipole_distance;
   const double line_direction = direction_mod_pi(b, -a);
-  const auto from = [&](double angle, int begin, int end) {
-    return static_cast<int>(std::lower_bound(direction_.begin() + begin, direction_.begin() + end, angle) -
-                            direction_.begin());
-  };
-  const auto to = [&](double angle, int begin, int end) {
-    return static_cast<int>(std::upper_bound(direction_.begin() + begin, direction_.begin() + end, angle) -
-                            direction_.begin());
-  };
   constexpr double pi = std::numbers::pi;
+  constexpr double buckets_per_radian = static_cast<double>(kBuckets) / pi;
+  constexpr auto last_bucket = static_cast<double>(kBuckets - 1);
   for (std::size_t r = 0; r < kRings; ++r) {
     const int begin = ring_start_[r], end = ring_start_[r + 1];
     if (begin == end) continue;
-    const double half = reach < kRingRadii[r] ? std::asin(reach / kRingRadii[r]) + kAngleMargin : pi;
+    double half = pi;
+    if (reach < kRingRadii[r]) {
+      const double x = reach / kRingRadii[r];
+      half = x / std::sqrt(1.0 - x * x) + kAngleMargin;  // >= asin(x)
+    }
     if (2.0 * half >= pi) {  // the window covers every direction
       add(begin, end);
       continue;
     }
-    // The window [direction - half, direction + half] modulo pi: one range, or two when it wraps.
+    const int* bucket = bucket_start_.data() + r * (kBuckets + 1);
+    // The first position at or before the first direction >= angle, and the first position
+    // after the last direction <= angle, for angle in [0, pi).
+    const auto from = [&](double angle) {
+      return bucket[static_cast<std::size_t>(std::clamp(std::floor(angle * buckets_per_radian - kBucketMargin), 0.0,
+                                                        last_bucket))];
+    };
+    const auto to = [&](double angle) {
+      return bucket[static_cast<std::size_t>(std::clamp(std::floor(angle * buckets_per_radian + kBucketMargin), 0.0,
+                                                        last_bucket)) +
+                    1];
+    };
+    // The window [direction - half, direction + half] modulo pi: one range, or two when it wraps
+    // (one when the rounded ends of the two meet: no position may be visited twice).
     const double low = line_direction - half, high = line_direction + half;
-    if (low < 0.0) {
-      add(begin, to(high, begin, end));
-      add(from(low + pi, begin, end), end);
-    } else if (high >= pi) {
-      add(begin, to(high - pi, begin, end));
-      add(from(low, begin, end), end);
+    if (low < 0.0 || high >= pi) {
+      const int head_end = to(low < 0.0 ? high : high - pi);
+      const int tail_begin = from(low < 0.0 ? low + pi : low);
+      if (head_end >= tail_begin) {
+        add(begin, end);
+      } else {
+        add(begin, head_end);
+        add(tail_begin, end);
+      }
     } else {
-      add(from(low, begin, end), to(high, begin, end));
+      add(from(low), to(high));
     }
   }
   return count;

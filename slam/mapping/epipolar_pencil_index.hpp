@@ -44,6 +44,8 @@ class EpipolarPencilIndex {
   }
 
   static constexpr std::size_t kRings = 8;
+  /// Direction buckets per ring: a window's ends are looked up, not searched for.
+  static constexpr std::size_t kBuckets = 128;
 
  private:
   struct Range {
@@ -57,7 +59,9 @@ class EpipolarPencilIndex {
   bool pencil_ = false;  ///< false: one range, all points
   double reach_px_ = 0.0;
   std::array<int, kRings + 1> ring_start_{};  ///< offsets into order_
-  std::vector<double> direction_;  ///< per position: the point's direction from the epipole, [0, pi)
+  /// Per ring r, entry r * (kBuckets + 1) + b: the first position of the ring whose direction is
+  /// at least b pi / kBuckets (the ring's end for b = kBuckets).
+  std::vector<int> bucket_start_;
   std::vector<int> order_;
 };
 

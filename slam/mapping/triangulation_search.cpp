@@ -76,6 +76,7 @@ struct EpipolarCandidates {
   std::vector<double> band;                     ///< chi2 (1 DoF, 95%) x sigma^2 of the feature's level
   std::vector<std::uint8_t> near_epipole_mono;  ///< no stereo depth and within 10 px x scale of the epipole
   std::vector<int> feature;
+  std::vector<Descriptor> descriptor;  ///< the features' descriptors, in the same order (contiguous)
   EpipolarPencilIndex index;
 
   EpipolarCandidates(const FrameFeatures& f2, const std::vector<int>& free2, const Eigen::Vector2d& epipole2,
@@ -87,9 +88,11 @@ struct EpipolarCandidates {
     band.resize(n);
     near_epipole_mono.resize(n);
     feature.resize(n);
+    descriptor.resize(n);
     for (std::size_t k = 0; k < n; ++k) {
       const auto s2 = static_cast<std::size_t>(free2[static_cast<std::size_t>(index.order()[k])]);
       feature[k] = static_cast<int>(s2);
+      descriptor[k] = f2.descriptors[s2];
       u[k] = f2.uv[s2].x();
       v[k] = f2.uv[s2].y();
       band[k] = kEpipolarChi2 * pyramid.sigma2[f2.level[s2]];
@@ -146,9 +149,10 @@ struct PairSearch {
 
   /// The search for feature i1 of keyframe 1; it depends on nothing else, so features may be
   /// searched in any order, on any thread.
-  BestCandidate search(const FrameFeatures& f1, const FrameFeatures& f2, int i1) const {
+  BestCandidate search(const FrameFeatures& f1, int i1) const {
     const auto s1 = static_cast<std::size_t>(i1);
     BestCandidate result;
+    const Descriptor query = f1.descriptors[s1];
     const Eigen::Vector3d line = F12.transpose() * Eigen::Vector3d(f1.uv[s1].x(), f1.uv[s1].y(), 1.0);
     const double line_norm2 = line.x() * line.x() + line.y() * line.y();
     if (!(line_norm2 > 0.0)) return result;
@@ -161,8 +165,7 @@ struct PairSearch {
         if (num * num >= candidates.band[k] * line_norm2) continue;
         if (skip_near_epipole && candidates.near_epipole_mono[k] != 0) continue;
         const int i2 = candidates.feature[k];
-        const int distance =
-            descriptor_distance(f1.descriptors[s1], f2.descriptors[static_cast<std::size_t>(i2)]);
+        const int distance = descriptor_distance(query, candidates.descriptor[k]);
         if (distance < result.best || (distance == result.best && i2 < result.i2)) {
           result.second = result.best;
           result.best = distance;
@@ -321,7 +324,7 @@ SearchedAhead search_ahead(Map& map, KeyFrame* keyframe, const std::vector<KeyFr
     const auto n = static_cast<std::size_t>(i / per_pair);
     if (!ahead.pairs[n]) return;
     const int i1 = free1[static_cast<std::size_t>(i % per_pair)];
-    ahead.best[n][static_cast<std::size_t>(i1)] = ahead.pairs[n]->search(f1, *neighbours[n]->features, i1);
+    ahead.best[n][static_cast<std::size_t>(i1)] = ahead.pairs[n]->search(f1, i1);
   });
   ahead.searched.assign(f1.size(), 0);
   for (const int i1 : free1) ahead.searched[static_cast<std::size_t>(i1)] = 1;
@@ -374,7 +377,7 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
     if (!ahead_serves) pair = &here.emplace(T_1w, T_2w, std::move(free2), f2, camera, pyramid);
     const std::vector<Match> matches = resolve_matches(f1, free1, f2, [&](int i1) {
       const auto s1 = static_cast<std::size_t>(i1);
-      return ahead_serves && ahead.searched[s1] != 0 ? ahead.best[n][s1] : pair->search(f1, f2, i1);
+      return ahead_serves && ahead.searched[s1] != 0 ? ahead.best[n][s1] : pair->search(f1, i1);
     });
 
     std::vector<NewPoint> new_points;

@@ -130,6 +130,31 @@ TEST(EpipolarPencilIndex, VisitsAFewPercentOfThePointsWhenTheEpipoleIsInView) {
   EXPECT_LT(share, 0.15) << "the index visits " << share * 100.0 << " % of the points per line";
 }
 
+// Half-widths close to a ring's inner radius give windows just under half a turn, whose two
+// wrapped ends, rounded outwards to the direction buckets, can meet: still each point once.
+TEST(EpipolarPencilIndex, WindowsOfNearlyHalfATurnVisitEachPointOnce) {
+  std::mt19937 rng(11);
+  const Eigen::Vector2d epipole(600.0, 180.0);
+  Points points;
+  std::uniform_real_distribution<double> radius(24.0, 48.0), angle(0.0, 2.0 * std::numbers::pi);
+  for (int i = 0; i < 800; ++i) {
+    const double r = radius(rng), a = angle(rng);
+    points.u.push_back(epipole.x() + r * std::cos(a));
+    points.v.push_back(epipole.y() + r * std::sin(a));
+  }
+  // The ring from 24 px: windows within two buckets of half a turn for half-widths of ~19.15-19.25
+  // px (the reach adds a pixel), so the sweep crosses them.
+  for (int step = 0; step <= 60; ++step) {
+    const double half_width = 18.9 + 0.01 * step;
+    const EpipolarPencilIndex index(points.u, points.v, epipole, half_width);
+    for (int i = 0; i < 360; ++i) {
+      const Eigen::Vector3d line = line_through(epipole, std::numbers::pi * (i + 0.37) / 360.0, 1.0);
+      ASSERT_TRUE(contains_all(visited(index, line), in_band(points, line, half_width)))
+          << "half-width " << half_width << ", line " << i;
+    }
+  }
+}
+
 TEST(EpipolarPencilIndex, AnEpipoleAtInfinityVisitsEveryPointInIndexOrder) {
   std::mt19937 rng(5);
   const Points points = image_points(50, rng);
