@@ -9,7 +9,9 @@
 namespace porta::slam {
 
 int default_cell_size(int width, int height) {
-  constexpr double kKittiCells = 1242.0 * 375.0 / (32.0 * 32.0);  // 455 level-0 cells
+  // 594 level-0 cells: what 28-px cells give a 1242x375 KITTI image. 32-px cells (455) tracked
+  // with a rotation error 1.13x that of 28-px ones as fast as possible (docs/BENCHMARKS.md).
+  constexpr double kKittiCells = 1242.0 * 375.0 / (28.0 * 28.0);
   const double area = static_cast<double>(std::max(width, 1)) * static_cast<double>(std::max(height, 1));
   return std::clamp(static_cast<int>(std::lround(std::sqrt(area / kKittiCells))), 8, 32);
 }

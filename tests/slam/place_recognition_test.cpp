@@ -171,7 +171,7 @@ TEST(PlaceDatabase, OxfordImagesFindTheirOwnSetFirst) {
     if (test::data_file(relative).empty()) GTEST_SKIP() << test::skip_reason(relative);
   }
   std::unique_ptr<Backend> backend = BackendRegistry::instance().create("cpu", {});
-  FrontendSettings settings;  // the SLAM defaults: 8 levels, 32-px cells
+  FrontendSettings settings;  // the frontend's defaults: 8 levels, 32-px cells
   std::map<std::pair<int, int>, std::unique_ptr<Frontend>> frontends;  // one per image size
   std::vector<std::vector<Descriptor>> images;
   PlaceDatabase database;

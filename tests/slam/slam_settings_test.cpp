@@ -11,33 +11,33 @@
 namespace porta::slam {
 namespace {
 
-// sqrt(W * H / 455) rounded, in [8, 32]: KITTI keeps ORB-SLAM2-sized 32-px cells, half-size
-// images get half-size cells, tiny and huge images stay within the bounds.
+// sqrt(W * H / 594) rounded, in [8, 32]: KITTI gets 28-px cells, half-size images half-size
+// cells, tiny and huge images stay within the bounds.
 TEST(SlamSettings, DefaultCellSizeFollowsTheImageArea) {
-  EXPECT_EQ(default_cell_size(1242, 375), 32);
+  EXPECT_EQ(default_cell_size(1242, 375), 28);
   EXPECT_EQ(default_cell_size(2484, 750), 32);
-  EXPECT_EQ(default_cell_size(640, 194), 17);
-  EXPECT_EQ(default_cell_size(621, 188), 16);
-  EXPECT_EQ(default_cell_size(752, 480), 28);
-  EXPECT_EQ(default_cell_size(320, 240), 13);
+  EXPECT_EQ(default_cell_size(640, 194), 14);
+  EXPECT_EQ(default_cell_size(621, 188), 14);
+  EXPECT_EQ(default_cell_size(752, 480), 25);
+  EXPECT_EQ(default_cell_size(320, 240), 11);
   EXPECT_EQ(default_cell_size(64, 48), 8);
   EXPECT_EQ(default_cell_size(0, 0), 8);
 }
 
-// KITTI's camera: 32-px cells, disparities up to bf / 0.5 m = 772.1 -> 773 px (under the width);
+// KITTI's camera: 28-px cells, disparities up to bf / 0.5 m = 772.1 -> 773 px (under the width);
 // a 320x240 camera with a long focal length and baseline is capped at its width.
 TEST(SlamSettings, DefaultSettingsFitTheCamera) {
   StereoCamera kitti{1242, 375, 718.856, 718.856, 607.19, 185.22, 0.537};
   const SlamSettings a = default_settings(kitti);
-  EXPECT_EQ(a.frontend.cell_width, 32);
-  EXPECT_EQ(a.frontend.cell_height, 32);
+  EXPECT_EQ(a.frontend.cell_width, 28);
+  EXPECT_EQ(a.frontend.cell_height, 28);
   EXPECT_EQ(a.frontend.stereo_max_disparity, 773);
   EXPECT_EQ(a.camera.fx, kitti.fx);
   EXPECT_NO_THROW(a.validate());
 
   StereoCamera small{320, 240, 400.0, 400.0, 160.0, 120.0, 1.0};
   const SlamSettings b = default_settings(small);
-  EXPECT_EQ(b.frontend.cell_width, 13);
+  EXPECT_EQ(b.frontend.cell_width, 11);
   EXPECT_EQ(b.frontend.stereo_max_disparity, 320);
   EXPECT_NO_THROW(b.validate());
 }

@@ -15,8 +15,8 @@ enum class RunMode {
 };
 
 /// The culling cell size (level 0, square) for an image of `width` x `height`: about as many
-/// level-0 cells as 32-px cells give a 1242x375 KITTI image (455), i.e. sqrt(W * H / 455) rounded,
-/// clamped to [8, 32]. 640x194 gets 17 px, 621x188 16 px, 752x480 28 px, 1242x375 32 px. Culling keeps
+/// level-0 cells as 28-px cells give a 1242x375 KITTI image (594), i.e. sqrt(W * H / 594) rounded,
+/// clamped to [8, 32]. 640x194 gets 14 px, 621x188 14 px, 752x480 25 px, 1242x375 28 px. Culling keeps
 /// one corner per cell, so smaller images need smaller cells for enough features to track (the
 /// paper's Tables VII and VIII fit the cell size to the resolution).
 int default_cell_size(int width, int height);
