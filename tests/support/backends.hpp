@@ -3,7 +3,12 @@
 
 #include <string>
 
+#include "porta/registry.hpp"
+
 namespace porta::test {
+
+/// The registry's entry for `name` (not built: available false, empty detail).
+BackendInfo backend_info(const std::string& name);
 
 /// True when `name` is built into this binary and found a usable device (`portaslam backends`).
 bool backend_available(const std::string& name);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "porta/registry.hpp"
+#include "support/backends.hpp"
 
 #if PORTA_HAVE_OPENCL_BACKEND
 #include "opencl/opencl_backend.hpp"
@@ -18,12 +19,6 @@ namespace porta {
 namespace {
 
 #if PORTA_HAVE_OPENCL_BACKEND
-
-BackendInfo opencl_info() {
-  for (const auto& info : BackendRegistry::instance().list())
-    if (info.name == "opencl") return info;
-  return {};
-}
 
 /// Sets an environment variable for one scope, then restores what was there.
 class ScopedEnv {
@@ -50,7 +45,7 @@ class ScopedEnv {
 class OpenClBackendTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const BackendInfo info = opencl_info();
+    const BackendInfo info = test::backend_info("opencl");
     if (!info.available) GTEST_SKIP() << "no usable OpenCL device: " << info.detail;
   }
 };

@@ -13,6 +13,7 @@
 
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
+#include "support/backends.hpp"
 #include "support/test_images.hpp"
 
 #if PORTA_HAVE_VULKAN_BACKEND
@@ -24,16 +25,10 @@ namespace {
 
 #if PORTA_HAVE_VULKAN_BACKEND
 
-BackendInfo vulkan_info() {
-  for (const auto& info : BackendRegistry::instance().list())
-    if (info.name == "vulkan") return info;
-  return {};
-}
-
 class VulkanBackendTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const BackendInfo info = vulkan_info();
+    const BackendInfo info = test::backend_info("vulkan");
     if (!info.available) GTEST_SKIP() << "no usable Vulkan device: " << info.detail;
     backend_ = std::make_unique<vulkan::VulkanBackend>();
   }
@@ -328,7 +323,7 @@ TEST(VulkanProbe, NoDriverMeansUnavailableNotACrash) {
     }
     setenv(names[i], "/nonexistent/porta_no_icd.json", 1);
   }
-  const BackendInfo info = vulkan_info();
+  const BackendInfo info = test::backend_info("vulkan");
   for (int i = 0; i < 2; ++i) {
     if (had[i])
       setenv(names[i], saved[i].c_str(), 1);
