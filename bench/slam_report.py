@@ -71,6 +71,8 @@ def figures(summary, gpu_csv):
         "gpu_ms_per_frame": None if util is None or wall is None else util / 100.0 * wall / frames * 1000.0,
         "gpu_mib": memory,
         "ate_m": (summary.get("ate") or {}).get("rmse_m"),
+        "cpu_by_thread": (throughput.get("cpu") or {}).get("by_thread_s"),
+        "reading_cpu_s": (throughput.get("cpu") or {}).get("reading_s"),
     }
 
 
@@ -161,6 +163,12 @@ def main():
             if r["cpu_s_per_frame"] is not None:
                 lines.append(f"- {b} at 10 Hz: host CPU {100.0 * r['cpu_s_per_frame'] * 10.0:.1f} % of one core "
                              "(goal <= 25 %)")
+            if r["cpu_by_thread"]:
+                frames = max(r["frames"], 1)
+                parts = ", ".join(f"{name} {1000.0 * s / frames:.2f}" for name, s in r["cpu_by_thread"].items())
+                reading = r["reading_cpu_s"]
+                lines.append(f"  - by thread, ms of CPU per frame: {parts}"
+                             + (f"; reading the images {1000.0 * reading / frames:.2f} of it" if reading else ""))
         lines.append("")
 
     lines += ["### Targets", ""]

@@ -1,6 +1,7 @@
 #include "slam_run.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +21,8 @@
 #include "map_report.hpp"
 #include "output_paths.hpp"
 #include "process_memory.hpp"
+#include "thread_cpu.hpp"
+#include "cpu/thread_name.hpp"
 #include "porta/registry.hpp"
 #include "porta/slam/atomic_file.hpp"
 #include "porta/slam/elapsed.hpp"
@@ -188,6 +191,15 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   std::vector<std::size_t> relocalised_frames;
   const auto run_start = std::chrono::steady_clock::now();
   const double cpu_start_s = process_cpu_seconds();
+  const ThreadCpuSnapshot threads_at_start = thread_cpu_snapshot();
+  std::atomic<double> reading_cpu_s{0.0};  // decoding the pairs, on whichever thread reads them
+  const auto load_pair = [&dataset, &reading_cpu_s](std::size_t i) {
+    const double cpu_start = this_thread_cpu_seconds();
+    slam::StereoPair pair = dataset->load(i);
+    const double spent = this_thread_cpu_seconds() - cpu_start;
+    reading_cpu_s.fetch_add(spent);
+    return pair;
+  };
   // As fast as possible, up to read_ahead pairs are read (and for EuRoC rectified) on threads of
   // their own while frames are processed (decoding two PNG images takes longer than a GPU frame).
   // Paced like a camera, a pair is read when it is due: a camera delivers decoded images, so
@@ -203,13 +215,16 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   const auto read_next = [&]() -> slam::StereoPair {
     const auto wait_start = std::chrono::steady_clock::now();
     if (read_ahead == 0) {
-      slam::StereoPair pair = dataset->load(next_request++);
+      slam::StereoPair pair = load_pair(next_request++);
       input_wait_ns.push_back(slam::elapsed_ns(wait_start));
       return pair;
     }
     while (reads.size() < read_ahead + 1 && next_request < end) {
       const std::size_t i = next_request++;
-      reads.push_back(std::async(std::launch::async, [&dataset, i] { return dataset->load(i); }));
+      reads.push_back(std::async(std::launch::async, [&load_pair, i] {
+        cpu::name_this_thread("porta-reader");
+        return load_pair(i);
+      }));
     }
     std::future<slam::StereoPair> read = std::move(reads.front());
     reads.pop_front();
@@ -274,6 +289,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
   summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
   summary.cpu_s = process_cpu_seconds() - cpu_start_s;
+  const std::vector<std::pair<std::string, double>> cpu_by_thread =
+      thread_cpu_between(threads_at_start, thread_cpu_snapshot(), summary.cpu_s);
   system.finish();
   summary.peak_resident_mib = peak_resident_mib();
   if (!options.save_map.empty()) {
@@ -377,6 +394,9 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                 recorded_fps);
   }
   std::printf("); peak memory %.0f MiB\n", summary.peak_resident_mib);
+  if (const std::string line = thread_cpu_text(cpu_by_thread, reading_cpu_s.load(), frames); !line.empty()) {
+    std::printf("%s\n", line.c_str());
+  }
 
   const LoopReport loops =
       report_loop_closing(system.loop_closer(), options.loop_closing, options.first, relocalised_frames);
@@ -458,7 +478,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
        << ",\n  \"throughput\": {\"wall_s\": " << summary.wall_s << ", \"frames_per_s\": "
        << summary.frames / std::max(summary.wall_s, 1e-9) << ", \"cpu_s\": " << summary.cpu_s
        << ", \"cpu_s_per_frame\": " << summary.cpu_s / frames << ", \"peak_resident_mib\": "
-       << summary.peak_resident_mib << "}"
+       << summary.peak_resident_mib << ", \"cpu\": " << thread_cpu_json(cpu_by_thread, reading_cpu_s.load()) << "}"
        << ",\n  " << loops.json << ",\n  " << map_report.json << ",\n  \"memory\": [";
   for (std::size_t k = 0; k < summary.memory.size(); ++k) {
     const SlamRunSummary::MemorySample& m = summary.memory[k];

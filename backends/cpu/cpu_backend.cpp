@@ -11,7 +11,7 @@ namespace porta::cpu {
 
 CpuBuffer::CpuBuffer(std::size_t bytes) : Buffer(bytes), bytes_(new std::uint8_t[bytes > 0 ? bytes : 1]()) {}
 
-CpuBackend::CpuBackend(int threads) : pool_(threads) {}
+CpuBackend::CpuBackend(int threads) : pool_(threads, "porta-cpu") {}
 
 std::string CpuBackend::device_name() const { return "cpu (" + std::to_string(pool_.size()) + " threads)"; }
 

@@ -1,5 +1,7 @@
 #include "cpu/thread_pool.hpp"
 
+#include "cpu/thread_name.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
@@ -8,7 +10,7 @@
 
 namespace porta::cpu {
 
-ThreadPool::ThreadPool(int threads) {
+ThreadPool::ThreadPool(int threads, const char* name) {
   if (threads < 0 || threads > kMaxThreads) {
     throw std::invalid_argument("cpu backend: threads must be in [0, " + std::to_string(kMaxThreads) +
                                 "] (0 = all hardware threads), got " + std::to_string(threads));
@@ -16,7 +18,10 @@ ThreadPool::ThreadPool(int threads) {
   int n = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
   n = std::clamp(n, 1, kMaxThreads);
   try {
-    for (int i = 0; i + 1 < n; ++i) workers_.emplace_back([this] { worker_loop(); });
+    for (int i = 0; i + 1 < n; ++i) workers_.emplace_back([this, thread_name = std::string(name)] {
+      name_this_thread(thread_name.c_str());
+      worker_loop();
+    });
   } catch (const std::system_error& e) {
     // The system refused a thread: stop the ones started, so that nothing is left joinable.
     const std::size_t started = workers_.size();

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "../system/thread_niceness.hpp"
+#include "cpu/thread_name.hpp"
 #include "loop_steps.hpp"
 #include "porta/slam/elapsed.hpp"
 
@@ -98,6 +99,7 @@ bool LoopCloser::busy() const {
 }
 
 void LoopCloser::thread_main() {
+  cpu::name_this_thread("porta-loop");
   detail::set_thread_nice(settings_.loop_closing_thread_nice);
   for (;;) {
     KeyFrame* keyframe = nullptr;
@@ -230,6 +232,7 @@ void LoopCloser::process(KeyFrame* keyframe) {
 }
 
 void LoopCloser::run_global_ba(std::uint64_t loop_keyframe, std::uint64_t generation) {
+  if (thread_.joinable()) cpu::name_this_thread("porta-global-ba");
   const auto start = Clock::now();
   GlobalBaRun run;
   run.after_loop_keyframe = loop_keyframe;

@@ -16,6 +16,7 @@
 #include <sched.h>
 #endif
 
+#include "cpu/thread_name.hpp"
 #include "cpu/thread_pool.hpp"
 #include "mapping_steps.hpp"
 #include "../system/thread_niceness.hpp"
@@ -31,7 +32,7 @@ using Clock = std::chrono::steady_clock;
 LocalMapper::LocalMapper(const SlamSettings& settings, Map& map)
     : settings_(settings), pyramid_(settings.frontend.levels, settings.frontend.scale_factor), map_(map) {
   if (const int threads = settings_.resolved_mapping_threads(); threads > 1) {
-    pool_ = std::make_unique<cpu::ThreadPool>(threads);
+    pool_ = std::make_unique<cpu::ThreadPool>(threads, "porta-map-pool");
   }
 }
 
@@ -126,6 +127,7 @@ void LocalMapper::pause_point() {
 }
 
 void LocalMapper::thread_main() {
+  cpu::name_this_thread("porta-mapping");
 #if defined(__linux__)
   // Tracking's latency comes first. SCHED_IDLE: the mapping thread runs only on a core nothing
   // else wants, and a waking tracking or frontend thread takes the core at once (a nice value

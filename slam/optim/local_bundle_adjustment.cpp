@@ -120,7 +120,7 @@ LocalBundleAdjustmentResult local_bundle_adjustment(const StereoCamera& camera,
   ParallelFor parallel_for = options.parallel_for;
   std::unique_ptr<cpu::ThreadPool> pool;
   if (!parallel_for && options.solver == BaSolver::schur && options.num_threads > 1) {
-    pool = std::make_unique<cpu::ThreadPool>(options.num_threads);
+    pool = std::make_unique<cpu::ThreadPool>(options.num_threads, "porta-ba-pool");
     parallel_for = [&pool](std::int64_t count, const std::function<void(std::int64_t)>& fn) {
       pool->parallel_for(0, count, fn);
     };
