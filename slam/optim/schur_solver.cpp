@@ -8,6 +8,13 @@
 // a dense system of 6 x (free keyframes) unknowns, built point by point: every pair of a point's
 // free observations adds one 6x6 block.
 //
+// The pose blocks are kept in the camera's frame. With p = R X + t the point in the camera, D = dr/dp
+// (camera_residual), w the Huber weight and A = [-[p]x  I] (dp / d(phi, rho)): J_pose = D A and
+// J_point = D R, so with M = w D^T D (3x3) and N = M R,
+//   U += A^T M A,   g_c += A^T e (e = w D^T r),   W = A^T N,
+// and a pair's block of the reduction, W_a V^-1 W_c^T = A_a^T (C_a N_c^T) A_c with C_a = N_a V^-1:
+// 3x3 products, then cross products with p_a and p_c, instead of 6x3 by 3x6 ones.
+//
 // Two ways to build it, the same numbers in the same order (so the same bits): on one thread, one
 // sweep over the points does everything (the fastest there); with a parallel_for, the work is
 // split by point (Jacobians, V^-1, the points' steps), by free keyframe (U, g_c, b) and by block
@@ -31,8 +38,6 @@ using Vec3 = Eigen::Vector3d;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat3 = Eigen::Matrix3d;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
-using Mat63 = Eigen::Matrix<double, 6, 3>;
-using Mat36 = Eigen::Matrix<double, 3, 6>;
 
 // Ceres' Levenberg-Marquardt constants (ceres::Solver::Options defaults).
 constexpr double kInitialRadius = 1e4;
@@ -43,19 +48,13 @@ constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kParameterTolerance = 1e-8;
 constexpr double kGradientTolerance = 1e-10;
 
-Mat3 skew(const Vec3& v) {
-  Mat3 m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
 double delta2(const SchurStage& stage, std::size_t i) {
   return stage.observations[i].is_stereo() ? stage.chi2_stereo : stage.chi2_mono;
 }
 
 /// One observation's residual (3 rows; the third is 0 for mono) and its squared norm, at camera
 /// point p; with dr_dp, the derivative (third row 0 for mono).
-bool residual_at(const SchurStage& stage, std::size_t i, const Vec3& p, Vec3& r, Mat3* dr_dp) {
+[[gnu::always_inline]] inline bool residual_at(const SchurStage& stage, std::size_t i, const Vec3& p, Vec3& r, Mat3* dr_dp) {
   const BaObservation& o = stage.observations[i];
   const double s = stage.sqrt_information[i];
   r.setZero();
@@ -80,38 +79,98 @@ void rotations(const std::vector<PoseParams>& poses, std::vector<Mat3>& R) {
   for (std::size_t k = 0; k < poses.size(); ++k) R[k] = pose_rotation(poses[k].data());
 }
 
-/// Observation i of world point X, linearised: residual, Huber weight, the derivative by the point
-/// and, for a free keyframe, by the pose (left increment: p' = Exp(phi) p + V(phi) rho, so
-/// dp / d(phi, rho) = [-[p]x  I]). False when the point lies in the camera's plane.
+/// Observation i of world point X, linearised: residual, Huber weight and, for a fixed keyframe,
+/// the derivative by the point; for a free keyframe, the camera-frame factors instead (the point in
+/// the camera p, M = w D^T D, e = w D^T r and N = M R; see the top of this file). False when the
+/// point lies in the camera's plane.
 struct Linearised {
   Vec3 r;
   double w = 0.0;
-  Mat3 J_point;
-  Mat36 J_pose;
+  Mat3 J_point;  // fixed keyframe only
+  Vec3 p, e;     // free keyframe only
+  Mat3 M, N;
 };
 bool linearise_observation(const SchurStage& stage, std::size_t i, const Mat3& R, const PoseParams& x,
                            const Vec3& X, bool free_pose, Linearised& l) {
   const Vec3 p = R * X + Vec3(x[4], x[5], x[6]);
-  Mat3 dr_dp;
-  if (!residual_at(stage, i, p, l.r, &dr_dp)) return false;
+  Mat3 D;
+  if (!residual_at(stage, i, p, l.r, &D)) return false;
   l.w = huber_weight(l.r.squaredNorm(), delta2(stage, i), stage.robust).weight;
-  l.J_point = dr_dp * R;
-  if (free_pose) {
-    l.J_pose.leftCols<3>() = -dr_dp * skew(p);
-    l.J_pose.rightCols<3>() = dr_dp;
+  if (!free_pose) {
+    l.J_point.noalias() = D * R;
+    return true;
   }
+  // camera_residual's D has zeros at (0, 1), (1, 0), (2, 1) and D(2, 0) = D(0, 0) (the third row is
+  // all zero for a mono observation): M's (0, 1) entry is 0.
+  const double w = l.w;
+  const double d00 = D(0, 0), d02 = D(0, 2), d11 = D(1, 1), d12 = D(1, 2), d20 = D(2, 0), d22 = D(2, 2);
+  l.M(0, 0) = w * (d00 * d00 + d20 * d20);
+  l.M(1, 1) = w * (d11 * d11);
+  l.M(2, 2) = w * (d02 * d02 + d12 * d12 + d22 * d22);
+  l.M(0, 1) = l.M(1, 0) = 0.0;
+  l.M(0, 2) = l.M(2, 0) = w * (d00 * d02 + d20 * d22);
+  l.M(1, 2) = l.M(2, 1) = w * (d11 * d12);
+  l.e = Vec3(w * (d00 * l.r[0] + d20 * l.r[2]), w * (d11 * l.r[1]), w * (d02 * l.r[0] + d12 * l.r[1] + d22 * l.r[2]));
+  l.N.noalias() = l.M * R;
+  l.p = p;
   return true;
 }
 
-/// The pose rows of a free observation, as the keyframes' sums take them.
+/// A point's terms from one observation: V += J_point^T w J_point, g_p += J_point^T w r (for a free
+/// keyframe from its factors: R^T N and R^T e).
+[[gnu::always_inline]] inline void add_point_terms(const Linearised& l, bool free_pose, const Mat3& R, Mat3& V, Vec3& g) {
+  if (free_pose) {
+    V.noalias() += R.transpose() * l.N;
+    g.noalias() += R.transpose() * l.e;
+  } else {
+    V.noalias() += l.w * l.J_point.transpose() * l.J_point;
+    g.noalias() += l.w * l.J_point.transpose() * l.r;
+  }
+}
+
+/// A free observation's factors, as the keyframes' sums take them.
 struct PoseRow {
-  Mat36 J_pose;
-  Vec3 r;
-  double w = 0.0;
+  Vec3 p, e;
+  Mat3 M;
 };
-void add_pose_terms(const Mat36& J_pose, const Vec3& r, double w, Mat6& U, Vec6& g) {
-  U.noalias() += w * J_pose.transpose() * J_pose;
-  g.noalias() += w * J_pose.transpose() * r;
+/// U += A^T M A and g += A^T e for A = [-[p]x  I]:
+///   A^T M A = [ -K [p]x   K ]   with K = [p]x M (so -M [p]x = K^T),   A^T e = [ p x e ]
+///             [  K^T      M ]                                                 [   e   ].
+[[gnu::always_inline]] inline void add_pose_terms(const Vec3& p, const Mat3& M, const Vec3& e, Mat6& U, Vec6& g) {
+  Mat3 K;
+  for (int c = 0; c < 3; ++c) K.col(c) = p.cross(M.col(c));
+  // -K [p]x, row by row: -k^T [p]x = (p x k)^T.
+  for (int r = 0; r < 3; ++r) U.block<1, 3>(r, 0) += p.cross(K.row(r).transpose()).transpose();
+  U.topRightCorner<3, 3>() += K;
+  U.bottomLeftCorner<3, 3>() += K.transpose();
+  U.bottomRightCorner<3, 3>() += M;
+  g.head<3>() += p.cross(e);
+  g.tail<3>() += e;
+}
+
+/// A_a^T Q A_c for A = [-[p]x  I] (the block a pair of a point's observations takes from the
+/// reduced system, with Q = C_a N_c^T):
+///   [ -P [p_c]x   P ]   with P = [p_a]x Q.
+///   [ -Q [p_c]x   Q ]
+[[gnu::always_inline]] inline Mat6 pair_block(const Vec3& p_a, const Mat3& Q, const Vec3& p_c) {
+  Mat6 out;
+  Mat3 P;
+  for (int c = 0; c < 3; ++c) P.col(c) = p_a.cross(Q.col(c));
+  for (int r = 0; r < 3; ++r) {
+    out.block<1, 3>(r, 0) = p_c.cross(P.row(r).transpose()).transpose();
+    out.block<1, 3>(r + 3, 0) = p_c.cross(Q.row(r).transpose()).transpose();
+  }
+  out.topRightCorner<3, 3>() = P;
+  out.bottomRightCorner<3, 3>() = Q;
+  return out;
+}
+
+/// W_a V^-1 g_p = A_a^T (C_a g_p): a keyframe's part of the reduced system's right-hand side.
+[[gnu::always_inline]] inline Vec6 rhs_term(const Vec3& p_a, const Mat3& C_a, const Vec3& g_p) {
+  const Vec3 h = C_a * g_p;
+  Vec6 out;
+  out << p_a.cross(h), h;
+  return out;
 }
 
 /// The solver's arrays, kept by each thread that solves from one solve to the next: a window's
@@ -119,7 +178,8 @@ void add_pose_terms(const Mat36& J_pose, const Vec3& r, double w, Mat6& U, Vec6&
 /// split loops touch it first on many threads) than the arithmetic of a whole iteration.
 struct Buffers {
   std::vector<Mat3> R;
-  std::vector<Mat63> W, Y;
+  std::vector<Mat3> N, C;  // per slot: M R and N V^-1 (free slots only)
+  std::vector<Vec3> P;     // per slot: the point in the camera (free slots only)
   std::vector<Mat3> V, V_inv;
   std::vector<Vec3> g_p, step_p;
   std::vector<Mat6> U;
@@ -143,7 +203,8 @@ class Solver {
         parallel_(stage.parallel_for != nullptr && *stage.parallel_for),
         layout_(make_schur_layout(stage.observations, *stage.active, *stage.pose_fixed, points.size())),
         R_(buffers.R),
-        W_(buffers.W),
+        N_(buffers.N),
+        P_(buffers.P),
         V_(buffers.V),
         V_inv_(buffers.V_inv),
         g_p_(buffers.g_p),
@@ -155,14 +216,15 @@ class Solver {
         b_(buffers.b),
         S_(buffers.S),
         pose_rows_(buffers.pose_rows),
-        Y_(buffers.Y) {
+        C_(buffers.C) {
     const std::size_t n_slots = layout_.observations.size();
     const auto n_points = layout_.points.size();
     const auto n_free = static_cast<std::size_t>(layout_.free_keyframes);
-    W_.resize(n_slots);
+    N_.resize(n_slots);
+    P_.resize(n_slots);
     cost_.resize(n_slots);
     if (parallel_) {
-      Y_.resize(n_slots);
+      C_.resize(n_slots);
       pose_rows_.resize(layout_.keyframe_slots.size());
     }
     V_.resize(n_points);
@@ -207,8 +269,9 @@ class Solver {
   const SchurLayout layout_;
   // In the thread's Buffers.
   std::vector<Mat3>& R_;
-  // Linearisation at the current estimate (undamped). W per slot (zero for a fixed keyframe's).
-  std::vector<Mat63>& W_;
+  // Linearisation at the current estimate (undamped). W = A^T N per free slot, kept as N and p.
+  std::vector<Mat3>& N_;
+  std::vector<Vec3>& P_;
   std::vector<Mat3>& V_;
   std::vector<Mat3>& V_inv_;
   std::vector<Vec3>& g_p_;
@@ -220,9 +283,9 @@ class Solver {
   Eigen::VectorXd& step_c_;
   Eigen::VectorXd& b_;
   Eigen::MatrixXd& S_;
-  // Split work only: the free slots' pose rows in keyframe order; Y = W V^-1 per free slot.
+  // Split work only: the free slots' pose rows in keyframe order; C = N V^-1 per free slot.
   std::vector<PoseRow>& pose_rows_;
-  std::vector<Mat63>& Y_;
+  std::vector<Mat3>& C_;
 };
 
 Mat3 Solver::damped(Mat3 H, double mu) const {
@@ -269,14 +332,11 @@ bool Solver::linearise() {
       const std::size_t k = stage_.observations[i].keyframe;
       const int f = layout_.free_of[a];
       if (!linearise_observation(stage_, i, R_[k], poses_[k], X, f >= 0, l)) return false;
-      V.noalias() += l.w * l.J_point.transpose() * l.J_point;
-      g.noalias() += l.w * l.J_point.transpose() * l.r;
-      if (f < 0) {
-        W_[a].setZero();
-        continue;
-      }
-      add_pose_terms(l.J_pose, l.r, l.w, U_[static_cast<std::size_t>(f)], g_c_[static_cast<std::size_t>(f)]);
-      W_[a].noalias() = l.w * l.J_pose.transpose() * l.J_point;
+      add_point_terms(l, f >= 0, R_[k], V, g);
+      if (f < 0) continue;
+      add_pose_terms(l.p, l.M, l.e, U_[static_cast<std::size_t>(f)], g_c_[static_cast<std::size_t>(f)]);
+      N_[a] = l.N;
+      P_[a] = l.p;
     }
     V_[j] = V;
     g_p_[j] = g;
@@ -300,14 +360,11 @@ bool Solver::linearise_split() {
         ok.store(false, std::memory_order_relaxed);
         return;
       }
-      V.noalias() += l.w * l.J_point.transpose() * l.J_point;
-      g.noalias() += l.w * l.J_point.transpose() * l.r;
-      if (f < 0) {
-        W_[a].setZero();
-        continue;
-      }
-      pose_rows_[layout_.keyframe_position[a]] = {l.J_pose, l.r, l.w};
-      W_[a].noalias() = l.w * l.J_pose.transpose() * l.J_point;
+      add_point_terms(l, f >= 0, R_[k], V, g);
+      if (f < 0) continue;
+      pose_rows_[layout_.keyframe_position[a]] = {l.p, l.e, l.M};
+      N_[a] = l.N;
+      P_[a] = l.p;
     }
     V_[j] = V;
     g_p_[j] = g;
@@ -318,7 +375,7 @@ bool Solver::linearise_split() {
     Mat6 U = Mat6::Zero();
     Vec6 g = Vec6::Zero();
     for (std::size_t s = layout_.keyframe_begin[f]; s < layout_.keyframe_begin[f + 1]; ++s) {
-      add_pose_terms(pose_rows_[s].J_pose, pose_rows_[s].r, pose_rows_[s].w, U, g);
+      add_pose_terms(pose_rows_[s].p, pose_rows_[s].M, pose_rows_[s].e, U, g);
     }
     U_[f] = U;
     g_c_[f] = g;
@@ -350,7 +407,7 @@ bool Solver::solve_step(double mu) {
     S_.block<6, 6>(o, o) = U;
     b_.segment<6>(o) = -g_c_[f];
   }
-  // V^-1 per point, and (split) its Y = W V^-1 in the same pass.
+  // V^-1 per point, and (split) its C = N V^-1 in the same pass.
   std::atomic<bool> ok{true};
   for_each_index(layout_.points.size(), [&](std::size_t j) {
     if (!invert_point(j, mu)) {
@@ -359,7 +416,7 @@ bool Solver::solve_step(double mu) {
     }
     if (!parallel_) return;
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
-      if (layout_.free_of[a] >= 0) Y_[a] = W_[a] * V_inv_[j];
+      if (layout_.free_of[a] >= 0) C_[a].noalias() = N_[a] * V_inv_[j];
     }
   });
   if (!ok.load()) return false;
@@ -379,34 +436,33 @@ bool Solver::solve_step(double mu) {
 
 // S -= W V^-1 W^T and b += W V^-1 g_p, point by point.
 void Solver::reduce_in_one_sweep() {
-  std::vector<Mat63> Y;  // W V^-1 of the point's free observations
+  std::vector<Mat3> C;  // N V^-1 of the point's free observations
   std::vector<Eigen::Index> at;
   for (std::size_t j = 0; j < layout_.points.size(); ++j) {
-    Y.clear();
+    C.clear();
     at.clear();
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
       const int f = layout_.free_of[a];
       if (f < 0) continue;
-      Y.push_back(W_[a] * V_inv_[j]);
+      C.push_back(N_[a] * V_inv_[j]);
       at.push_back(6 * static_cast<Eigen::Index>(f));
-      b_.segment<6>(at.back()).noalias() += Y.back() * g_p_[j];
+      b_.segment<6>(at.back()) += rhs_term(P_[a], C.back(), g_p_[j]);
     }
     std::size_t m = 0;
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
       if (layout_.free_of[a] < 0) continue;
-      const Mat63& Wa = W_[a];
       // Upper triangle of S: the block (row, col) with row <= col.
-      S_.block<6, 6>(at[m], at[m]).noalias() -= Y[m] * Wa.transpose();
+      S_.block<6, 6>(at[m], at[m]) -= pair_block(P_[a], C[m] * N_[a].transpose(), P_[a]);
       std::size_t q = m + 1;
       for (std::size_t c = a + 1; c < layout_.group_begin[j + 1]; ++c) {
         if (layout_.free_of[c] < 0) continue;
-        const Mat63& Wc = W_[c];
         if (at[m] < at[q]) {
-          S_.block<6, 6>(at[m], at[q]).noalias() -= Y[m] * Wc.transpose();
+          S_.block<6, 6>(at[m], at[q]) -= pair_block(P_[a], C[m] * N_[c].transpose(), P_[c]);
         } else if (at[m] > at[q]) {
-          S_.block<6, 6>(at[q], at[m]).noalias() -= Y[q] * Wa.transpose();
+          S_.block<6, 6>(at[q], at[m]) -= pair_block(P_[c], C[q] * N_[a].transpose(), P_[a]);
         } else {  // two observations of one point in one keyframe: both cross terms
-          S_.block<6, 6>(at[m], at[m]).noalias() -= Y[m] * Wc.transpose() + Y[q] * Wa.transpose();
+          S_.block<6, 6>(at[m], at[m]) -= pair_block(P_[a], C[m] * N_[c].transpose(), P_[c]) +
+                                          pair_block(P_[c], C[q] * N_[a].transpose(), P_[a]);
         }
         ++q;
       }
@@ -415,7 +471,7 @@ void Solver::reduce_in_one_sweep() {
   }
 }
 
-// The same sums, split (Y is ready): each block of S and each keyframe's part of b on its own.
+// The same sums, split (C is ready): each block of S and each keyframe's part of b on its own.
 void Solver::reduce_split() {
   const std::size_t blocks = layout_.blocks.size();
   for_each_index(blocks + U_.size(), [&](std::size_t t) {
@@ -424,7 +480,7 @@ void Solver::reduce_split() {
       auto b = b_.segment<6>(6 * static_cast<Eigen::Index>(f));
       for (std::size_t s = layout_.keyframe_begin[f]; s < layout_.keyframe_begin[f + 1]; ++s) {
         const std::uint32_t a = layout_.keyframe_slots[s];
-        b.noalias() += Y_[a] * g_p_[layout_.point_of[a]];
+        b += rhs_term(P_[a], C_[a], g_p_[layout_.point_of[a]]);
       }
       return;
     }
@@ -436,13 +492,14 @@ void Solver::reduce_split() {
     const SchurLayout::Term* const end = layout_.terms.data() + layout_.block_begin[t + 1];
     for (const SchurLayout::Term* term = layout_.terms.data() + layout_.block_begin[t]; term != end; ++term) {
       if (term + 1 != end) {  // the next term's rows: they lie wherever their point's slots are
-        __builtin_prefetch(Y_[term[1].x].data());
-        __builtin_prefetch(W_[term[1].y].data());
+        __builtin_prefetch(C_[term[1].x].data());
+        __builtin_prefetch(N_[term[1].y].data());
       }
+      const std::uint32_t x = term->x, y = term->y;
       if (term->both) {
-        S.noalias() -= Y_[term->x] * W_[term->y].transpose() + Y_[term->y] * W_[term->x].transpose();
+        S -= pair_block(P_[x], C_[x] * N_[y].transpose(), P_[y]) + pair_block(P_[y], C_[y] * N_[x].transpose(), P_[x]);
       } else {
-        S.noalias() -= Y_[term->x] * W_[term->y].transpose();
+        S -= pair_block(P_[x], C_[x] * N_[y].transpose(), P_[y]);
       }
     }
     block_of_S = S;
@@ -456,7 +513,10 @@ bool Solver::back_substitute() {
     Vec3 rhs = -g_p_[j];
     for (std::size_t a = layout_.group_begin[j]; a < layout_.group_begin[j + 1]; ++a) {
       const int f = layout_.free_of[a];
-      if (f >= 0) rhs.noalias() -= W_[a].transpose() * step_c_.segment<6>(6 * static_cast<Eigen::Index>(f));
+      if (f < 0) continue;
+      // W^T dc = N^T A dc, A dc = rho - p x phi.
+      const auto d = step_c_.segment<6>(6 * static_cast<Eigen::Index>(f));
+      rhs.noalias() -= N_[a].transpose() * (d.tail<3>() - P_[a].cross(d.head<3>()));
     }
     step_p_[j] = V_inv_[j] * rhs;
     if (!step_p_[j].allFinite()) ok.store(false, std::memory_order_relaxed);
