@@ -83,6 +83,8 @@ Frontend::Frontend(Backend& backend, const FrontendSettings& settings, int width
   pattern_ = upload_vector(backend_, tables_.orb_pattern);
   const int queues = std::max(backend_.queue_count(), 1);
   downloads_at_submit_ = queues > 1;
+  // The slots take queues 0 .. 2 in_flight - 1 (modulo the count): the next one, if any, is free.
+  if (queues > 2 * options_.in_flight) spare_queue_ = 2 * options_.in_flight;
   const int cells = tables_.cells.total_cells;
   const auto cells_z = static_cast<std::size_t>(cells);
   const Plane& l0 = pyramid_layout_.levels[0];

@@ -26,7 +26,10 @@ System::System(const SlamSettings& settings, Backend& backend, RunMode mode, Sys
   mapper_ = std::make_unique<LocalMapper>(settings_, map_);
   loop_closer_ = std::make_unique<LoopCloser>(settings_, map_);
   mapper_->set_keyframe_processed([closer = loop_closer_.get()](KeyFrame* keyframe) { closer->insert_keyframe(keyframe); });
-  tracker_ = std::make_unique<Tracker>(settings_, map_, *mapper_, backend_, frontend_->tables(), loop_closer_.get());
+  // Tracking's projection matching on a queue of its own where the backend has one to spare: the
+  // frame tracked does not wait for the next one's frontend work, queued on the slot's queues.
+  tracker_ = std::make_unique<Tracker>(settings_, map_, *mapper_, backend_, frontend_->tables(), loop_closer_.get(),
+                                       frontend_->spare_queue());
   // Localisation only: nothing is added to the map, so neither thread has work.
   if (mode_ == RunMode::realtime && !settings_.localization_only) {
     loop_closer_->start();

@@ -47,9 +47,14 @@ struct ProjectionMatcher::DeviceSide {
   int num_keypoints = 0;
 };
 
-ProjectionMatcher::ProjectionMatcher(Backend* backend, std::vector<std::int32_t> scales_q16)
-    : backend_(backend), scales_q16_(std::move(scales_q16)) {
-  if (backend_ != nullptr) device_ = std::make_unique<DeviceSide>(*backend_);
+ProjectionMatcher::ProjectionMatcher(Backend* backend, std::vector<std::int32_t> scales_q16, int queue)
+    : backend_(backend), scales_q16_(std::move(scales_q16)), queue_(queue) {
+  if (backend_ == nullptr) return;
+  if (queue_ >= 0 && queue_ >= backend_->queue_count()) {
+    throw BackendError(backend_->name() + ": projection matching on queue " + std::to_string(queue_) +
+                       ", but the backend has queues 0 to " + std::to_string(backend_->queue_count() - 1));
+  }
+  device_ = std::make_unique<DeviceSide>(*backend_);
 }
 
 ProjectionMatcher::~ProjectionMatcher() = default;
@@ -94,6 +99,7 @@ std::vector<ProjectionResult> ProjectionMatcher::match(const std::vector<Project
   if (queries.empty()) return {};
   if (!device_) return match_on_host(queries, query_descriptors);
 
+  if (queue_ >= 0) backend_->use_queue(queue_);
   DeviceSide& d = *device_;
   const std::size_t n = queries.size();
   d.queries.resize(n);

@@ -79,7 +79,7 @@ void check_features(const FrameFeatures& f, int levels) {
 
 struct Tracker::Impl {
   Impl(const SlamSettings& s, Map& m, LocalMapper& lm, Backend& backend, const FrontendTables& tables,
-       LoopCloser* lc)
+       LoopCloser* lc, int projection_queue)
       : settings(s),
         map(m),
         mapper(lm),
@@ -87,7 +87,7 @@ struct Tracker::Impl {
         pyramid(tables.settings.levels, tables.settings.scale_factor),
         scales_q16(tables.scales_q16),
         geometry{settings.camera, pyramid, scales_q16},
-        matcher(settings.projection_on_backend ? &backend : nullptr, scales_q16) {}
+        matcher(settings.projection_on_backend ? &backend : nullptr, scales_q16, projection_queue) {}
 
   bool initialize(Frame& frame, TrackingResult& result);
   int match_last_frame_from(Frame& frame, const Frame& last, const SE3& T_cw, double window_px);
@@ -517,8 +517,8 @@ bool Tracker::Impl::relocalise(Frame& frame, TrackingResult& result) {
 // ---- Tracker ------------------------------------------------------------------------------------
 
 Tracker::Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Backend& backend,
-                 const FrontendTables& tables, LoopCloser* loop_closer)
-    : impl_(std::make_unique<Impl>(settings, map, mapper, backend, tables, loop_closer)) {
+                 const FrontendTables& tables, LoopCloser* loop_closer, int projection_queue)
+    : impl_(std::make_unique<Impl>(settings, map, mapper, backend, tables, loop_closer, projection_queue)) {
   settings.validate();
   if (tables.scales_q16.size() != static_cast<std::size_t>(tables.settings.levels)) {
     throw std::invalid_argument("Tracker: the frontend tables have " +

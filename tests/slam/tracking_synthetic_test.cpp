@@ -22,6 +22,7 @@
 #include "porta/slam/projection_matcher.hpp"
 #include "porta/slam/tracker.hpp"
 #include "porta/tables.hpp"
+#include "support/backends.hpp"
 #include "synthetic_world.hpp"
 
 namespace porta::slam {
@@ -230,13 +231,14 @@ TEST(Tracking, SameInputGivesBitIdenticalPoses) {
   EXPECT_EQ(first.map.num_points(), second.map.num_points());
 }
 
-// The matcher alone: random windows over a synthetic frame, every result byte equal.
-TEST(Tracking, ProjectionMatcherOnBackendEqualsHostSearchByteForByte) {
+// The matcher alone: random windows over a synthetic frame, every result byte equal to the host
+// search's, with the matcher's work on `queue` of `backend` (-1: the current queue).
+void expect_backend_equals_host(Backend& backend, int queue) {
+  SCOPED_TRACE(backend.name() + ", queue " + std::to_string(queue));
   const World w(13);
   const auto features = observe(w, 4, 13);
   const std::vector<Keypoint> keypoints = kernel_keypoints(*features, w.tables.scales_q16);
-  auto backend = cpu_backend();
-  ProjectionMatcher on_backend(backend.get(), w.tables.scales_q16), on_host(nullptr, w.tables.scales_q16);
+  ProjectionMatcher on_backend(&backend, w.tables.scales_q16, queue), on_host(nullptr, w.tables.scales_q16);
   on_backend.set_frame(keypoints, features->descriptors);
   on_host.set_frame(keypoints, features->descriptors);
   std::mt19937_64 rng(13);
@@ -273,6 +275,32 @@ TEST(Tracking, ProjectionMatcherOnBackendEqualsHostSearchByteForByte) {
   }
   EXPECT_GT(found, 500);
   EXPECT_GT(with_second, 200);
+}
+
+TEST(Tracking, ProjectionMatcherOnBackendEqualsHostSearchByteForByte) {
+  auto backend = cpu_backend();
+  expect_backend_equals_host(*backend, -1);
+  expect_backend_equals_host(*backend, 0);
+  // Every device backend here, on its last queue (System gives the matcher the frontend's spare
+  // queue, so that it does not wait behind frames in flight).
+  for (const char* name : {"vulkan", "opencl", "cuda"}) {
+    if (!porta::test::backend_available(name)) continue;
+    std::unique_ptr<Backend> device = BackendRegistry::instance().create(name, {});
+    expect_backend_equals_host(*device, device->queue_count() - 1);
+  }
+}
+
+TEST(Tracking, ProjectionMatcherOnAQueueTheBackendLacksIsAClearError) {
+  const World w(13);
+  auto backend = cpu_backend();
+  try {
+    ProjectionMatcher matcher(backend.get(), w.tables.scales_q16, 1);
+    FAIL() << "queue 1 of a one-queue backend was accepted";
+  } catch (const BackendError& e) {
+    EXPECT_NE(std::string(e.what()).find("queue 1, but the backend has queues 0 to 0"), std::string::npos) << e.what();
+  }
+  // Without a backend (host search) there is no queue to check.
+  EXPECT_NO_THROW(ProjectionMatcher(nullptr, w.tables.scales_q16, 5));
 }
 
 }  // namespace

@@ -190,6 +190,25 @@ TEST(FrontendInFlight, PipelinedStereoGivesTheBytesOfOneFrameAtATime) {
   EXPECT_EQ(on_queues.pending(), 0);
 }
 
+TEST(FrontendInFlight, TheSpareQueueIsOneNoSlotUses) {
+  FrontendSettings s;
+  s.levels = 2;
+  DeferredQueues deferred;
+  FrontendOptions one;
+  Frontend single(deferred, s, 64, 48, one);
+  EXPECT_EQ(single.spare_queue(), 2);  // the slot takes queues 0 and 1 of 4
+  const Pairs in = five_pairs(64, 48);
+  deferred.used.clear();
+  single.submit_stereo(in.left[0].view(), in.right[0].view());
+  single.collect_stereo();
+  EXPECT_EQ(deferred.used.count(single.spare_queue()), 0u) << "a frame went to the spare queue";
+  FrontendOptions two;
+  two.in_flight = 2;
+  EXPECT_EQ(Frontend(deferred, s, 64, 48, two).spare_queue(), -1);  // both slots take all four
+  cpu::CpuBackend in_order(1);
+  EXPECT_EQ(Frontend(in_order, s, 64, 48, one).spare_queue(), -1);  // one queue: nothing to spare
+}
+
 TEST(FrontendInFlight, PipelinedDetectionGivesTheBytesOfOneFrameAtATime) {
   const Pairs in = five_pairs(256, 200);
   for (const bool describe : {false, true}) {

@@ -126,6 +126,10 @@ class Frontend {
   /// Frames submitted and not yet collected.
   int pending() const { return pending_; }
   int in_flight() const { return static_cast<int>(slots_.size()); }
+  /// A queue of the backend that none of the in-flight slots uses, -1 when the backend has none to
+  /// spare: other work given to it (tracking's projection matching) runs beside the frames in
+  /// flight instead of waiting behind them on their queue.
+  int spare_queue() const { return spare_queue_; }
 
   const FrontendTables& tables() const { return tables_; }
   const PyramidLayout& pyramid_layout() const { return pyramid_layout_; }
@@ -160,6 +164,7 @@ class Frontend {
   std::unique_ptr<Buffer> lut_, resize_, boundaries_, pattern_;
   std::vector<std::unique_ptr<Slot>> slots_;
   bool downloads_at_submit_ = false;  // the backend has several queues: results travel back async
+  int spare_queue_ = -1;              // spare_queue()
   int next_submit_ = 0;               // slot of the next submit
   int pending_ = 0;
   int last_collected_ = 0;

@@ -28,7 +28,10 @@ std::vector<Keypoint> kernel_keypoints(const FrameFeatures& features,
 /// Runs the projection-match search for one frame at a time. `backend` null: on the host.
 class ProjectionMatcher {
  public:
-  ProjectionMatcher(Backend* backend, std::vector<std::int32_t> scales_q16);
+  /// `queue` (with a backend): the backend queue match() sends its transfers and kernel to
+  /// (Frontend::spare_queue(), so that they do not wait behind frames in flight); -1 = whichever
+  /// queue is current. BackendError when the backend has no such queue.
+  ProjectionMatcher(Backend* backend, std::vector<std::int32_t> scales_q16, int queue = -1);
   ~ProjectionMatcher();
   ProjectionMatcher(const ProjectionMatcher&) = delete;
   ProjectionMatcher& operator=(const ProjectionMatcher&) = delete;
@@ -54,6 +57,7 @@ class ProjectionMatcher {
 
   Backend* backend_;
   std::vector<std::int32_t> scales_q16_;
+  int queue_ = -1;
   std::vector<Descriptor> descriptors_;  // host search only
   std::vector<Placed> by_row_;           // host search only: sorted by row, then index
   std::unique_ptr<DeviceSide> device_;

@@ -59,10 +59,11 @@ struct TrackingResult {
 
 class Tracker {
  public:
-  /// `backend` runs the projection-match kernel; `tables` are the frontend's (level scales);
+  /// `backend` runs the projection-match kernel, on its queue `projection_queue` (-1: the current
+  /// one; System gives it Frontend::spare_queue()); `tables` are the frontend's (level scales);
   /// `loop_closer` (may be null: no relocalisation) holds the place-recognition database.
   Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Backend& backend,
-          const FrontendTables& tables, LoopCloser* loop_closer = nullptr);
+          const FrontendTables& tables, LoopCloser* loop_closer = nullptr, int projection_queue = -1);
   ~Tracker();
   Tracker(const Tracker&) = delete;
   Tracker& operator=(const Tracker&) = delete;
