@@ -55,23 +55,57 @@ bool residual_at(const ProjectionModel& m, const Term& term, const PoseAt& pose,
   return true;
 }
 
-/// Adds row J = [p x d | d] of the Jacobian, weighted by w, to the normal equations (upper triangle
-/// of H) with its residual r. d is a row of dr/dp; -d [p]x = (p x d)^T is the rotation part.
-inline void add_row(const Vec3& p, double d0, double d1, double d2, double r, double w, Matrix6& H, Vector6& g) {
-  const double J[6] = {p.y() * d2 - p.z() * d1, p.z() * d0 - p.x() * d2, p.x() * d1 - p.y() * d0, d0, d1, d2};
-  for (int a = 0; a < 6; ++a) {
-    const double wa = w * J[a];
-    for (int b = a; b < 6; ++b) H(a, b) += wa * J[b];
-    g[a] += wa * r;
-  }
+/// Adds one term to the normal equations (upper triangle of H) and g. Its rows of the Jacobian are
+/// the rows of D A, for D = dr/dp (camera_residual: rows (d00, 0, d02), (0, d11, d12), (d20, 0, d22),
+/// the third all zero for a mono term) and A = [-[p]x  I], the left increment's dp / d[phi; rho]. So
+/// with M = w D^T D (M01 = 0) and e = w D^T r the term adds
+///   H += A^T M A = [ [p]x M [p]x^T   [p]x M ]      g += A^T e = [ p x e ]
+///                  [ ([p]x M)^T      M      ],                  [   e   ],
+/// 3x3 work in the camera's frame instead of a 6x6 outer product per row.
+inline void add_term(const Vec3& p, double d00, double d02, double d11, double d12, double d20, double d22,
+                     const Vec3& r, double w, Matrix6& H, Vector6& g) {
+  const double a = w * (d00 * d00 + d20 * d20), b = w * (d00 * d02 + d20 * d22), c = w * (d11 * d11),
+               d = w * (d11 * d12), f = w * (d02 * d02 + d12 * d12 + d22 * d22);
+  const double e0 = w * (d00 * r[0] + d20 * r[2]), e1 = w * (d11 * r[1]),
+               e2 = w * (d02 * r[0] + d12 * r[1] + d22 * r[2]);
+  const double x = p.x(), y = p.y(), z = p.z();
+  // K = [p]x M, column by column (p x M's columns (a, 0, b), (0, c, d), (b, d, f)).
+  const double k00 = y * b, k10 = z * a - x * b, k20 = -y * a;
+  const double k01 = y * d - z * c, k11 = -x * d, k21 = x * c;
+  const double k02 = y * f - z * d, k12 = z * b - x * f, k22 = x * d - y * b;
+  // [p]x M [p]x^T = -K [p]x: row i is p x (row i of K); its upper triangle.
+  H(0, 0) += y * k02 - z * k01;
+  H(0, 1) += z * k00 - x * k02;
+  H(0, 2) += x * k01 - y * k00;
+  H(1, 1) += z * k10 - x * k12;
+  H(1, 2) += x * k11 - y * k10;
+  H(2, 2) += x * k21 - y * k20;
+  H(0, 3) += k00;
+  H(0, 4) += k01;
+  H(0, 5) += k02;
+  H(1, 3) += k10;
+  H(1, 4) += k11;
+  H(1, 5) += k12;
+  H(2, 3) += k20;
+  H(2, 4) += k21;
+  H(2, 5) += k22;
+  H(3, 3) += a;
+  H(3, 5) += b;
+  H(4, 4) += c;
+  H(4, 5) += d;
+  H(5, 5) += f;
+  g[0] += y * e2 - z * e1;
+  g[1] += z * e0 - x * e2;
+  g[2] += x * e1 - y * e0;
+  g[3] += e0;
+  g[4] += e1;
+  g[5] += e2;
 }
 
 /// The robust cost of the active terms at `params` and, summed in the same pass, the normal
 /// equations H (upper triangle, then mirrored) and g; false when a residual cannot be evaluated.
 /// The Jacobian is taken in the tangent space directly: for the left increment T <- exp(d) T of
-/// se3_manifold.hpp, d p / d [phi; rho] = [-[p]x  I], as the bundle adjustment's Schur solver does;
-/// dr/dp has four zeros (camera_residual), so each row is built from its three entries, and a
-/// monocular term has two rows, not three.
+/// se3_manifold.hpp, d p / d [phi; rho] = [-[p]x  I], as the bundle adjustment's Schur solver does.
 bool evaluate(const ProjectionModel& model, const std::vector<Term>& terms, const std::vector<bool>& active,
               bool robust, const PoseParams& params, double& cost, Matrix6& H, Vector6& g) {
   const PoseAt pose(params);
@@ -85,12 +119,16 @@ bool evaluate(const ProjectionModel& model, const std::vector<Term>& terms, cons
     if (!residual_at(model, term, pose, p, r)) return false;
     const detail::HuberWeight huber = detail::huber_weight(r.squaredNorm(), term.delta2, robust);
     cost += huber.cost;
-    const double w = huber.weight, s = term.s;
+    const double s = term.s;
     const double inv_z = 1.0 / p.z(), inv_z2 = inv_z * inv_z;
     const double du = -s * model.fx * inv_z;  // camera_residual's dr/dp entries
-    add_row(p, du, 0.0, s * model.fx * p.x() * inv_z2, r[0], w, H, g);
-    add_row(p, 0.0, -s * model.fy * inv_z, s * model.fy * p.y() * inv_z2, r[1], w, H, g);
-    if (term.stereo) add_row(p, du, 0.0, -s * (model.bf - model.fx * p.x()) * inv_z2, r[2], w, H, g);
+    const double d02 = s * model.fx * p.x() * inv_z2;
+    const double d11 = -s * model.fy * inv_z, d12 = s * model.fy * p.y() * inv_z2;
+    if (term.stereo) {
+      add_term(p, du, d02, d11, d12, du, -s * (model.bf - model.fx * p.x()) * inv_z2, r, huber.weight, H, g);
+    } else {
+      add_term(p, du, d02, d11, d12, 0.0, 0.0, r, huber.weight, H, g);
+    }
   }
   H.triangularView<Eigen::StrictlyLower>() = H.transpose();
   return true;
