@@ -100,12 +100,14 @@ int fuse_with_neighbours(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame*
     merged += fuse_points_into(target, own, settings.camera, pyramid);
   }
   if (map.yield_to_waiters(lock) && keyframe->bad) return merged;
-  // The targets' points into the keyframe, each point once, in the order first met.
+  // The targets' points into the keyframe, each point once, in the order first met (membership by
+  // a pass mark: tens of thousands of slots, under the lock tracking waits for).
   std::vector<MapPoint*> candidates;
-  std::set<std::uint64_t> candidate_ids;
+  const std::uint64_t mark = new_pass_mark();
   for (KeyFrame* target : targets) {
     for (MapPoint* point : target->points) {
-      if (point == nullptr || point->bad || !candidate_ids.insert(point->id).second) continue;
+      if (point == nullptr || point->bad || point->collect_mark == mark) continue;
+      point->collect_mark = mark;
       candidates.push_back(point);
     }
   }

@@ -23,11 +23,15 @@ BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) 
 
 }  // namespace
 
+std::uint64_t new_pass_mark() {
+  static std::atomic<std::uint64_t> marks{0};
+  return marks.fetch_add(1, std::memory_order_relaxed) + 1;
+}
+
 BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, const ScalePyramid& pyramid) {
   // Membership by marks on the map objects (every caller holds Map::mutex), not by trees: this
   // runs under the lock tracking waits for, over thousands of points and their observations.
-  static std::atomic<std::uint64_t> marks{0};
-  const std::uint64_t mark = marks.fetch_add(1, std::memory_order_relaxed) + 1;
+  const std::uint64_t mark = new_pass_mark();
   BaProblem problem;
   for (KeyFrame* kf : local) {  // id order
     kf->collect_mark = mark;

@@ -71,7 +71,8 @@ class MapPoint {
   /// Tracking's marks, under Map::mutex and not saved: the last local-map build that listed the
   /// point and the last frame that matched it (membership tests without a hash set per frame).
   std::uint64_t tracking_local_mark = 0, tracking_frame_mark = 0;
-  /// Bundle adjustment's collection mark (mapping::collect_bundle_adjustment), under Map::mutex.
+  /// Local mapping's pass mark (mapping::new_pass_mark: bundle adjustment's collection, fusion's
+  /// candidate list), under Map::mutex.
   std::uint64_t collect_mark = 0;
 
   int num_observations() const;  ///< stereo observations count 2, as in ORB-SLAM2
