@@ -135,7 +135,9 @@ int KeyFrame::tracked_points(int min_observations) const {
 }
 
 void KeyFrame::update_connections(int min_weight) {
-  std::map<KeyFrame*, int, ById> counts;
+  // Thousands of increments over a few dozen keyframes: a sorted vector (by id, as a ById map
+  // iterates), not a tree.
+  IdMap<KeyFrame, int> counts;
   for (const MapPoint* point : points) {
     if (point == nullptr || point->bad) continue;
     for (const auto& [other, feature] : point->observations) {
