@@ -192,9 +192,9 @@ done
 
 # ---- 3b. Local bundle adjustment on the host's threads (porta_ba_bench; needs Google Benchmark) --
 if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
-  say "local BA benchmark: one thread against the split loops on 1, 2, 4 and 8"
+  say "local BA benchmark: one thread against the split loops on 1, 2, 4 and 8; pose-only optimisation"
   if cmake --build "$build_dir" --target porta_ba_bench -j "${PORTA_JOBS:-$(nproc)}" >>"$out_dir/build.log" 2>&1; then
-    "$build_dir/bench/porta_ba_bench" --benchmark_filter='Schur($|Threads)' --benchmark_repetitions=5 \
+    "$build_dir/bench/porta_ba_bench" --benchmark_filter='Schur($|Threads)|PoseOptimization' --benchmark_repetitions=5 \
       --benchmark_report_aggregates_only=true >"$out_dir/ba-bench.txt" 2>&1 || status=1
   else
     echo "porta_ba_bench not built (Google Benchmark missing? see build.log)" >"$out_dir/ba-bench.txt"
