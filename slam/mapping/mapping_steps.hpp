@@ -91,13 +91,13 @@ struct BaProblem {
   std::vector<int> observation_feature;  // per observation: the keyframe's feature index
 };
 
-/// Caller holds the lock: `free` keyframes, every good point they see, and the other keyframes
-/// observing those points as fixed ones; keyframe 0 is always fixed (without any fixed keyframe
-/// the oldest free one is held, to fix the gauge).
 /// A mark no pass over map objects has used yet, for membership tests by `collect_mark` (instead of
 /// a set per pass) in a pass that holds Map::mutex throughout.
 std::uint64_t new_pass_mark();
 
+/// Caller holds the lock: `free` keyframes, every good point they see, and the other keyframes
+/// observing those points as fixed ones; keyframe 0 is always fixed (without any fixed keyframe
+/// the oldest free one is held, to fix the gauge).
 BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& free, const ScalePyramid& pyramid);
 
 /// Step 6 (caller holds the lock): culls the covisible keyframes of `keyframe` whose close points
