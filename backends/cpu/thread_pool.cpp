@@ -11,6 +11,10 @@
 namespace porta::cpu {
 
 ThreadPool::ThreadPool(int threads, const char* name) {
+  if (name == nullptr || *name == '\0') {
+    throw std::invalid_argument("cpu backend: a thread pool needs a name for its workers, got " +
+                                std::string(name == nullptr ? "none" : "an empty one"));
+  }
   if (threads < 0 || threads > kMaxThreads) {
     throw std::invalid_argument("cpu backend: threads must be in [0, " + std::to_string(kMaxThreads) +
                                 "] (0 = all hardware threads), got " + std::to_string(threads));

@@ -19,8 +19,9 @@ class ThreadPool {
   /// Most threads a pool takes: more is a mistake, not a machine (and each costs a stack).
   static constexpr int kMaxThreads = 1024;
   /// `threads` 0 = std::thread::hardware_concurrency(). The workers take the name `name` (what a
-  /// profiler and `portaslam run`'s CPU by thread show). Throws std::invalid_argument outside
-  /// [0, kMaxThreads], std::runtime_error (no thread left running) when the system refuses one.
+  /// profiler and `portaslam run`'s CPU by thread show). Throws std::invalid_argument for `threads`
+  /// outside [0, kMaxThreads] or a null or empty `name`, std::runtime_error (no thread left
+  /// running) when the system refuses one.
   explicit ThreadPool(int threads = 0, const char* name = "porta-pool");
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;

@@ -5,6 +5,10 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -80,6 +84,46 @@ TEST(ThreadPool, CreatedAndDestroyedRepeatedly) {
     if (i % 2 == 0) expect_each_index_once(pool, 0, 100);
   }
 }
+
+TEST(ThreadPool, BadThreadCountsAndNamesAreClearErrors) {
+  const auto message_of = [](auto&& make) {
+    try {
+      make();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message_of([] { ThreadPool pool(-1); }).find("threads must be in [0, 1024]"), std::string::npos);
+  EXPECT_NE(message_of([] { ThreadPool pool(1025); }).find("got 1025"), std::string::npos);
+  EXPECT_NE(message_of([] { ThreadPool pool(2, nullptr); }).find("needs a name for its workers, got none"),
+            std::string::npos);
+  EXPECT_NE(message_of([] { ThreadPool pool(2, ""); }).find("got an empty one"), std::string::npos);
+}
+
+#if defined(__linux__)
+// The workers carry the pool's name (cut to Linux's 15 characters: a longer one would be refused
+// by the kernel and leave them unnamed), so that `portaslam run`'s CPU by thread can tell them apart.
+TEST(ThreadPool, WorkersCarryThePoolsNameCutTo15Characters) {
+  ThreadPool pool(3, "porta-test-pool-with-a-long-name");
+  const auto named = [] {
+    int n = 0;
+    for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+      std::ifstream comm(task.path() / "comm");
+      std::string name;
+      if (std::getline(comm, name) && name == "porta-test-pool") ++n;
+    }
+    return n;
+  };
+  // A worker names itself when it starts, which may come after the constructor returns: wait for
+  // it (a state, not a speed; the deadline only stops a broken build from hanging).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (named() < 2 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(named(), 2);  // the caller is the third thread of the pool
+}
+#endif
 
 }  // namespace
 }  // namespace porta::cpu
