@@ -39,7 +39,7 @@ void for_each_term(const SchurLayout& layout, Fn&& fn) {
 }  // namespace
 
 SchurLayout make_schur_layout(std::span<const BaObservation> observations, const std::vector<bool>& active,
-                              const std::vector<bool>& pose_fixed, std::size_t num_points) {
+                              const std::vector<bool>& pose_fixed, std::size_t num_points, bool split) {
   if (observations.size() > std::numeric_limits<std::uint32_t>::max()) {
     throw std::invalid_argument("local_bundle_adjustment: " + std::to_string(observations.size()) +
                                 " observations; the schur solver takes at most 2^32 - 1");
@@ -77,6 +77,8 @@ SchurLayout make_schur_layout(std::span<const BaObservation> observations, const
       layout.free_of[a] = layout.free_index[observations[layout.observations[a]].keyframe];
     }
   }
+
+  if (!split) return layout;
 
   // By free keyframe (a counting sort of the slots, which keeps them ascending).
   const auto n_free = static_cast<std::size_t>(layout.free_keyframes);

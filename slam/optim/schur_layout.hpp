@@ -47,8 +47,10 @@ struct SchurLayout {
 };
 
 /// The layout of the observations flagged in `active` over `num_keyframes` keyframes (those with
-/// `pose_fixed` set are held) and `num_points` points.
+/// `pose_fixed` set are held) and `num_points` points. The per-keyframe and per-block lists serve
+/// only work split over threads: without `split` they are left empty (a single sweep by point
+/// needs neither, and listing every term costs a third of the sweep's own time).
 SchurLayout make_schur_layout(std::span<const BaObservation> observations, const std::vector<bool>& active,
-                              const std::vector<bool>& pose_fixed, std::size_t num_points);
+                              const std::vector<bool>& pose_fixed, std::size_t num_points, bool split);
 
 }  // namespace porta::slam::optim::detail

@@ -201,7 +201,7 @@ class Solver {
         poses_(poses),
         points_(points),
         parallel_(stage.parallel_for != nullptr && *stage.parallel_for),
-        layout_(make_schur_layout(stage.observations, *stage.active, *stage.pose_fixed, points.size())),
+        layout_(make_schur_layout(stage.observations, *stage.active, *stage.pose_fixed, points.size(), parallel_)),
         R_(buffers.R),
         N_(buffers.N),
         P_(buffers.P),
