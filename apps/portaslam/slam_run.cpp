@@ -93,6 +93,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.keyframes_while_mapping = options.keyframes_while_mapping;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.keyframe_queue_limit = options.keyframe_queue;
+  settings.projection_on_backend = options.projection_on_backend;
   settings.validate();
   return settings;
 }
@@ -143,7 +144,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   std::printf("dataset   %s\n", dataset->describe().c_str());
   std::printf("camera    %s\n", settings.camera.describe().c_str());
-  std::printf("backend   %s on %s\n", backend->name().c_str(), backend->device_name().c_str());
+  std::printf("backend   %s on %s%s\n", backend->name().c_str(), backend->device_name().c_str(),
+              settings.projection_on_backend ? "" : "; tracking's projection matching on the host");
   std::printf("mode      %s, frames %zu..%zu, %d pyramid levels, scale %.2f, FAST threshold %d, %d-px cells\n",
               options.mode == slam::RunMode::realtime ? "realtime" : "deterministic", options.first, end - 1,
               settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold,
@@ -514,6 +516,9 @@ std::string slam_run_options_usage() {
          "                      realtime: a keyframe the scene needs is made while mapping is busy\n"
          "                      and none waits (default on; off: only when mapping is idle, as\n"
          "                      ORB-SLAM2)\n"
+         "  --projection-match WHERE\n"
+         "                      backend (default: the backend's projection-match kernel) or host:\n"
+         "                      where tracking matches map points to the frame; same matches\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
@@ -565,6 +570,12 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.ba_tolerance = parse_double(option, text);
     if (!(options.ba_tolerance > 0.0 && options.ba_tolerance < 1.0))
       throw CliError("option --ba-tolerance expects a number above 0 and below 1, got '" + text + "'");
+  } else if (option == "--projection-match") {
+    const std::string where = cursor.value(option);
+    if (where != "backend" && where != "host") {
+      throw CliError("--projection-match takes backend or host, got '" + where + "'");
+    }
+    options.projection_on_backend = where == "backend";
   } else if (option == "--mode") {
     const std::string mode = cursor.value(option);
     if (mode == "realtime") {

@@ -23,6 +23,7 @@ struct SlamRunOptions {
   bool keyframes_while_mapping = true;  ///< SlamSettings::keyframes_while_mapping
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
   int keyframe_queue = 2;         ///< SlamSettings::keyframe_queue_limit
+  bool projection_on_backend = true;  ///< SlamSettings::projection_on_backend
   slam::RunMode mode = slam::RunMode::realtime;
   std::string out = "portaslam-run";
   std::size_t first = 0;

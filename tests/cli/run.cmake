@@ -97,6 +97,8 @@ if(TARGET porta_place_bench)
   porta_place_bench_test(place_bench_zero_gap 2 "--every and --gap must be >= 1" x --gap 0)
   porta_place_bench_test(place_bench_missing_dataset 1 "porta_place_bench: .*no_such_folder" no_such_folder)
 endif()
+porta_cli_test(run_bad_projection_match EXIT 1 STDERR "--projection-match takes backend or host, got 'gpu'"
+               ARGS run --dataset kitti x --projection-match gpu)
 porta_cli_test(run_bad_keyframes_while_mapping EXIT 1
                STDERR "--keyframes-while-mapping takes on or off, got 'maybe'"
                ARGS run --dataset kitti x --keyframes-while-mapping maybe)
