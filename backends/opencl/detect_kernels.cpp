@@ -61,17 +61,80 @@ struct ClPfa {  // detect.cl porta_pfa
 };
 static_assert(sizeof(ClPfa) == 48 + 5 * 4);
 
+/// fast_crf's checks of its arguments.
+void check_fast(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, const Buffer& responses,
+                const PyramidLayout& response_layout, const FastParams& params) {
+  check_same_level_sizes(layout, response_layout, "fast_crf");
+  checks::check_fast_edge(kBackend, params);
+  require_bytes(lut, 65536, "fast_crf", "the FAST table");
+  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
+  for (const Plane& p : response_layout.levels) require_plane_inside(responses, p, 2, "fast_crf", "response level");
+}
+
+/// cull_cells' checks of its arguments; returns the end of the last cell grid (the cells it writes).
+std::int64_t check_cull(const Buffer& responses, const PyramidLayout& response_layout, const CellLayout& cell_layout,
+                        const Buffer& cells) {
+  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
+    throw BackendError("opencl: cull_cells: the cell layout has " + std::to_string(cell_layout.levels.size()) +
+                       " levels but the responses " + std::to_string(response_layout.num_levels()));
+  std::int64_t end_cell = 0;
+  for (const LevelCells& c : cell_layout.levels) {
+    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0)
+      throw BackendError("opencl: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
+                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
+                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
+    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
+  }
+  for (const Plane& p : response_layout.levels)
+    require_plane_inside(responses, p, 2, "cull_cells", "response level");
+  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells", "the cell array");
+  return end_cell;
+}
+
+/// pfa_filter's checks of its arguments; returns the kernels' parameters (total_cells 0: nothing
+/// to do).
+ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
+  const int width0 = params.level0_width, height0 = params.level0_height;
+  if (width0 <= 0 || height0 <= 0)
+    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is empty");
+  // The cpu backend throws when it meets a keypoint of a level without a scale; the device cannot
+  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
+  if (params.scales_q16.size() < cell_layout.levels.size())
+    throw BackendError("opencl: pfa_filter: " + std::to_string(params.scales_q16.size()) +
+                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
+  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
+  if (pixels0 > std::numeric_limits<std::uint32_t>::max() / 4)
+    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is too large");
+  ClPfa p{};
+  const int total = cell_layout.total_cells;
+  if (total <= 0) return p;
+  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
+                "pfa_filter", "the cell array");
+  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
+  for (int n = 0; n < num_scales; ++n) p.scales.v[n] = params.scales_q16[static_cast<std::size_t>(n)];
+  p.total_cells = total;
+  p.num_scales = num_scales;
+  p.width0 = width0;
+  p.height0 = height0;
+  p.reach = params.window / 2;
+  return p;
+}
+
+/// detect_group's limits (detect.cl): its cells' keys in local memory, a key's 20 bits of pixel
+/// index within a cell, and a frame small enough for one work-group's FAST.
+constexpr std::int64_t kGroupCells = 512;  // PORTA_GROUP_CELLS
+constexpr std::int64_t kGroupCellPixels = std::int64_t{1} << 20;
+constexpr std::int64_t kGroupFramePixels = std::int64_t{1} << 17;
+
 }  // namespace
 
 // §3.3, one launch. GPUs: one work-group per 32 x 8 tile of any level, the tile read once into
 // local memory (fast_tiled); elsewhere one work-item per pixel of every level (fast_crf).
 void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
-  check_same_level_sizes(layout, response_layout, "fast_crf");
-  checks::check_fast_edge(kBackend, params);
-  require_bytes(lut, 65536, "fast_crf", "the FAST table");
-  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
-  for (const Plane& p : response_layout.levels) require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  check_fast(pyramid, layout, lut, responses, response_layout, params);
   if (work_groups()) {
     std::size_t tiles = 0;
     const ClTiles t = tiles_of(layout, "fast_crf", tiles);
@@ -94,20 +157,7 @@ constexpr std::int64_t kSmallCellPixels = 256;
 // §3.4: one launch over the cells of every level: a work-group per large cell, else a work-item.
 void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                                const CellLayout& cell_layout, Buffer& cells) {
-  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
-    throw BackendError("opencl: cull_cells: the cell layout has " + std::to_string(cell_layout.levels.size()) +
-                       " levels but the responses " + std::to_string(response_layout.num_levels()));
-  std::int64_t end_cell = 0;
-  for (const LevelCells& c : cell_layout.levels) {
-    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0)
-      throw BackendError("opencl: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
-                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
-                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
-    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
-  }
-  for (const Plane& p : response_layout.levels)
-    require_plane_inside(responses, p, 2, "cull_cells", "response level");
-  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells", "the cell array");
+  const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
   if (end_cell == 0) return;
   // Large cells on a GPU: a 64-wide work-group per cell (cull_cells_group); small ones, a CPU
   // device (work_groups()), or a grid the group kernel's 32-bit cell index cannot hold: one
@@ -131,32 +181,10 @@ void OpenClBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
 // that are zero between calls (zero when allocated, restored by the last step). GPUs, a few
 // hundred cells: the three in one work-group (pfa_group); otherwise three launches.
 void OpenClBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
-  const int width0 = params.level0_width, height0 = params.level0_height;
-  if (width0 <= 0 || height0 <= 0)
-    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
-                       std::to_string(height0) + " is empty");
-  // The cpu backend throws when it meets a keypoint of a level without a scale; the device cannot
-  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
-  if (params.scales_q16.size() < cell_layout.levels.size())
-    throw BackendError("opencl: pfa_filter: " + std::to_string(params.scales_q16.size()) +
-                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
-  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
-  if (pixels0 > std::numeric_limits<std::uint32_t>::max() / 4)
-    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
-                       std::to_string(height0) + " is too large");
-  const int total = cell_layout.total_cells;
+  const ClPfa p = check_pfa(cells, cell_layout, params);
+  const int total = p.total_cells;
   if (total <= 0) return;
-  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
-                "pfa_filter", "the cell array");
-
-  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
-  ClPfa p{};
-  for (int n = 0; n < num_scales; ++n) p.scales.v[n] = params.scales_q16[static_cast<std::size_t>(n)];
-  p.total_cells = total;
-  p.num_scales = num_scales;
-  p.width0 = width0;
-  p.height0 = height0;
-  p.reach = params.window / 2;
+  const std::int64_t pixels0 = static_cast<std::int64_t>(p.width0) * p.height0;
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
@@ -195,6 +223,42 @@ void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
   if (capacity == 0) return;
   launch("detect", "compact_scatter", per_block, cells, static_cast<cl_int>(total), static_cast<cl_int>(kCompactBlock),
          blocks, *out.items, static_cast<cl_uint>(capacity));
+}
+
+// §3.3-§3.5 and the compaction. A small frame on a GPU: one 1024-wide work-group does all of it
+// (detect_group), one launch where the four calls take four (a frame of 320x240 pixels is bound by
+// the host's enqueues, ~5 us each on NVIDIA's OpenCL); the same checks and the same bytes.
+void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                                     Buffer& responses, const PyramidLayout& response_layout,
+                                     const FastParams& fast, const CellLayout& cell_layout, Buffer& cells,
+                                     const PfaParams* pfa, DeviceList out) {
+  const auto four_calls = [&] {
+    Backend::detect_keypoints(pyramid, layout, lut, responses, response_layout, fast, cell_layout, cells, pfa, out);
+  };
+  if (!detect_group() || max_work_group() < 1024) return four_calls();
+  std::int64_t pixels = 0;
+  for (const Plane& p : layout.levels) pixels += static_cast<std::int64_t>(std::max(p.width, 0)) * std::max(p.height, 0);
+  bool small = pixels <= kGroupFramePixels;
+  for (const LevelCells& c : cell_layout.levels)
+    small = small && c.cell_w > 0 && c.cell_h > 0 && static_cast<std::int64_t>(c.cell_w) * c.cell_h <= kGroupCellPixels;
+  if (!small) return four_calls();
+  check_fast(pyramid, layout, lut, responses, response_layout, fast);
+  const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
+  const int total = cell_layout.total_cells;
+  if (end_cell < 1 || end_cell > kGroupCells || total < 1 || total > kGroupCells) return four_calls();
+  ClPfa p{};
+  if (pfa != nullptr) p = check_pfa(cells, cell_layout, *pfa);
+  const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
+  const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(p.width0, 1)) * std::max(p.height0, 1);
+  // Without PFA or items, the cell array stands in for the unused buffers (nothing is written there).
+  Buffer& sum_map = pfa != nullptr ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  const Buffer& items = capacity > 0 ? *out.items : cells;
+  launch("detect", "detect_group", Range::linear(1024, 1024), pyramid, to_cl(layout), lut, to_cl(cell_layout),
+         static_cast<cl_int>(fast.threshold), static_cast<cl_int>(fast.edge), static_cast<cl_int>(end_cell), cells,
+         static_cast<cl_int>(pfa != nullptr ? 1 : 0), p, sum_map, level_map, rejected, static_cast<cl_int>(total),
+         items, static_cast<cl_uint>(capacity), *out.count, static_cast<cl_ulong>(out.count_offset_bytes));
 }
 
 }  // namespace porta::opencl

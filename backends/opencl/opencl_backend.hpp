@@ -86,6 +86,11 @@ class OpenClBackend final : public Backend {
   PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
+  /// On a GPU (work_groups()), a frame of at most 512 cells and 2^17 pixels in one launch
+  /// (detect_group); otherwise, or with $PORTA_OPENCL_DETECT_GROUP=off, the four kernels' launches.
+  void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
+                        const PyramidLayout& response_layout, const FastParams& fast, const CellLayout& cell_layout,
+                        Buffer& cells, const PfaParams* pfa, DeviceList out) override;
 
   // ---- for the kernel files ----
   /// Kernel `kernel_name` of program `program` (a file of shaders/opencl without ".cl"), created on
@@ -113,6 +118,9 @@ class OpenClBackend final : public Backend {
   /// pay; a CPU device (PoCL) runs work-items as loops, and there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
   /// runs both kinds on PoCL). The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
+  /// Whether detect_keypoints may take its one-work-group path: where work_groups() is on, unless
+  /// $PORTA_OPENCL_DETECT_GROUP=off (on forces it on a CPU device too, for tests).
+  bool detect_group() const { return detect_group_; }
   /// Whether build_pyramid builds levels 1..m in one launch (build_pyramid_fused): by default
   /// where work_groups() is on; $PORTA_OPENCL_FUSED_PYRAMID=on or off overrides.
   bool fused_pyramid() const { return fused_pyramid_; }
@@ -163,6 +171,7 @@ class OpenClBackend final : public Backend {
   bool fused_pyramid_ = false;
   bool profile_kernels_ = false;
   bool work_groups_ = false;
+  bool detect_group_ = false;
   std::size_t max_work_group_ = 0;
   struct TimedDispatch {
     int queue;

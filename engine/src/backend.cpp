@@ -33,6 +33,16 @@ void Backend::check_queue_index(int queue, const char* call) const {
                        std::to_string(queue_count() - 1));
 }
 
+void Backend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                               Buffer& responses, const PyramidLayout& response_layout, const FastParams& fast,
+                               const CellLayout& cell_layout, Buffer& cells, const PfaParams* pfa,
+                               DeviceList out) {
+  fast_crf(pyramid, layout, lut, responses, response_layout, fast);
+  cull_cells(responses, response_layout, cell_layout, cells);
+  if (pfa != nullptr) pfa_filter(cells, cell_layout, *pfa);
+  compact_keypoints(cells, cell_layout.total_cells, out);
+}
+
 std::unique_ptr<HostBuffer> Backend::allocate_host(std::size_t bytes) {
   return std::make_unique<PlainHostBuffer>(bytes);
 }

@@ -187,20 +187,25 @@ void Frontend::run_side(Slot& slot, Side& side, const ImageView* image, const In
   stage(times.pyramid_ns);
 
   const auto& s = tables_.settings;
-  backend_.fast_crf(*side.pyramid, pyramid_layout_, *lut_, *side.responses, response_layout_,
-                    FastParams{s.fast_threshold, s.edge});
-  stage(times.fast_ns);
-
-  backend_.cull_cells(*side.responses, response_layout_, tables_.cells, *side.cells);
-  stage(times.cull_ns);
-
-  if (s.pfa) {
-    backend_.pfa_filter(*side.cells, tables_.cells,
-                        PfaParams{tables_.scales_q16, l0.width, l0.height, s.pfa_window});
-  }
+  const FastParams fast{s.fast_threshold, s.edge};
   const DeviceList list = side.list();
-  backend_.compact_keypoints(*side.cells, tables_.cells.total_cells, list);
-  stage(times.pfa_ns);
+  if (!profile) {
+    // Detection to the keypoint list in one call: a backend may run it in fewer launches.
+    const PfaParams pfa{tables_.scales_q16, l0.width, l0.height, s.pfa_window};
+    backend_.detect_keypoints(*side.pyramid, pyramid_layout_, *lut_, *side.responses, response_layout_, fast,
+                              tables_.cells, *side.cells, s.pfa ? &pfa : nullptr, list);
+  } else {
+    backend_.fast_crf(*side.pyramid, pyramid_layout_, *lut_, *side.responses, response_layout_, fast);
+    stage(times.fast_ns);
+    backend_.cull_cells(*side.responses, response_layout_, tables_.cells, *side.cells);
+    stage(times.cull_ns);
+    if (s.pfa) {
+      backend_.pfa_filter(*side.cells, tables_.cells,
+                          PfaParams{tables_.scales_q16, l0.width, l0.height, s.pfa_window});
+    }
+    backend_.compact_keypoints(*side.cells, tables_.cells.total_cells, list);
+    stage(times.pfa_ns);
+  }
 
   if (!options_.describe) return;
   backend_.orient(*side.pyramid, pyramid_layout_, list, tables_.umax, *boundaries_, s.orientation_bins);

@@ -29,6 +29,22 @@ inline int porta_locate_cell(const porta_cells* cells, int cell) {
   return -1;
 }
 
+// The FAST response of the pixel at `centre` (at least 3 pixels inside its level): the sum of
+// |I_i - c| over the circle when lut[bright] | lut[dark], else 0.
+inline ushort porta_fast_response(__global const uchar* centre, const int pitch, __global const uchar* lut,
+                                  const int eps) {
+  const int c = centre[0];
+  uint bright = 0, dark = 0;
+  int sum = 0;
+  for (int i = 0; i < 16; ++i) {
+    const int p = centre[porta_fast_dy[i] * pitch + porta_fast_dx[i]];
+    if (p > c + eps) bright |= 1u << i;
+    if (p < c - eps) dark |= 1u << i;
+    sum += abs(p - c);
+  }
+  return (lut[bright] | lut[dark]) ? (ushort)sum : (ushort)0;
+}
+
 // §3.3 FAST CRF with bounded rectification (DESIGN.md §3.3): one work-item per pixel of every level
 // (global: max width x sum of heights). Response = sum |I_i - c| when lut[bright] | lut[dark], else 0;
 // pixels within `edge` of the border get 0, so every pixel of the level's width x height is written.
@@ -43,19 +59,8 @@ __kernel void fast_crf(__global const uchar* pyramid, const porta_levels layout,
   const porta_plane dst = response_layout.level[n];
   if (x >= dst.width) return;
   ushort response = 0;
-  if (y >= edge && y < src.height - edge && x >= edge && x < src.width - edge) {
-    __global const uchar* centre = pyramid + src.offset_bytes + (long)y * src.pitch + x;
-    const int c = centre[0];
-    uint bright = 0, dark = 0;
-    int sum = 0;
-    for (int i = 0; i < 16; ++i) {
-      const int p = centre[porta_fast_dy[i] * src.pitch + porta_fast_dx[i]];
-      if (p > c + eps) bright |= 1u << i;
-      if (p < c - eps) dark |= 1u << i;
-      sum += abs(p - c);
-    }
-    if (lut[bright] | lut[dark]) response = (ushort)sum;
-  }
+  if (y >= edge && y < src.height - edge && x >= edge && x < src.width - edge)
+    response = porta_fast_response(pyramid + src.offset_bytes + (long)y * src.pitch + x, src.pitch, lut, eps);
   // Response planes hold 2-byte elements: offset_bytes is even for any layout the engine makes.
   __global ushort* out = (__global ushort*)((__global uchar*)responses + dst.offset_bytes);
   out[(long)y * dst.pitch + x] = response;
@@ -261,15 +266,20 @@ __kernel void pfa_apply(__global porta_keypoint* cells, const porta_pfa p, __glo
 // Work-item t handles cells t, t + 1024, ... in every step, so rejected[i] is written and read by
 // the same work-item; the maps the atomics of step A wrote are read by others after the barrier's
 // global fence. The same bytes as the three launches.
+inline void porta_pfa_in_group(__global porta_keypoint* cells, const porta_pfa* p, __global uint* sum_map,
+                               __global uint* level_map, __global uchar* rejected) {
+  const int t = (int)get_local_id(0);
+  for (int i = t; i < p->total_cells; i += 1024) porta_pfa_accumulate_cell(cells, i, p, sum_map, level_map);
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  for (int i = t; i < p->total_cells; i += 1024) porta_pfa_decide_cell(cells, i, p, sum_map, level_map, rejected);
+  barrier(CLK_GLOBAL_MEM_FENCE);  // every read of the maps is done before step C clears them
+  for (int i = t; i < p->total_cells; i += 1024) porta_pfa_apply_cell(cells, i, p, sum_map, level_map, rejected);
+}
+
 __kernel __attribute__((reqd_work_group_size(1024, 1, 1)))
 void pfa_group(__global porta_keypoint* cells, const porta_pfa p, __global uint* sum_map,
                __global uint* level_map, __global uchar* rejected) {
-  const int t = (int)get_local_id(0);
-  for (int i = t; i < p.total_cells; i += 1024) porta_pfa_accumulate_cell(cells, i, &p, sum_map, level_map);
-  barrier(CLK_GLOBAL_MEM_FENCE);
-  for (int i = t; i < p.total_cells; i += 1024) porta_pfa_decide_cell(cells, i, &p, sum_map, level_map, rejected);
-  barrier(CLK_GLOBAL_MEM_FENCE);  // every read of the maps is done before step C clears them
-  for (int i = t; i < p.total_cells; i += 1024) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
+  porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
 }
 
 // Canonical compaction, step 1 (ARCHITECTURE.md "Keypoint list"): one work-item per block of
@@ -320,18 +330,17 @@ __kernel void compact_scatter(__global const porta_keypoint* cells, const int to
   }
 }
 
-// Compaction in one 256-wide work-group (GPUs; compact_count/scan/scatter elsewhere): the same
-// output as the three steps. The cells go by in tiles of 4 * 256: each work-item counts its 4
-// cells, an inclusive prefix sum over the work-group in local memory gives where they go, then it
-// writes them (records at or past `capacity` not written); the tile's total moves the base on. The
-// count is written as compact_scan writes it.
-__kernel __attribute__((reqd_work_group_size(256, 1, 1)))
-void compact_group(__global const porta_keypoint* cells, const int total_cells, __global porta_keypoint* items,
-                   const uint capacity, __global uchar* count_bytes, const ulong count_offset) {
-  __local uint sums[256];
+// Compaction by one work-group of `width` work-items (`sums`: `width` uints of local memory): the
+// same output as compact_count / compact_scan / compact_scatter. The cells go by in tiles of
+// 4 * width: each work-item counts its 4 cells, an inclusive prefix sum over the work-group in
+// local memory gives where they go, then it writes them (records at or past `capacity` not
+// written); the tile's total moves the base on. The count is written as compact_scan writes it.
+inline void porta_compact_in_group(__global const porta_keypoint* cells, const int total_cells,
+                                   __global porta_keypoint* items, const uint capacity, __global uchar* count_bytes,
+                                   const ulong count_offset, __local uint* sums, const int width) {
   const int t = (int)get_local_id(0);
   uint base = 0;
-  for (int tile = 0; tile < total_cells; tile += 256 * 4) {
+  for (int tile = 0; tile < total_cells; tile += width * 4) {
     const int first = tile + t * 4;
     porta_keypoint kp[4];
     uint count = 0;
@@ -341,14 +350,14 @@ void compact_group(__global const porta_keypoint* cells, const int total_cells, 
     }
     sums[t] = count;
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int off = 1; off < 256; off <<= 1) {
+    for (int off = 1; off < width; off <<= 1) {
       const uint v = t >= off ? sums[t - off] : 0u;
       barrier(CLK_LOCAL_MEM_FENCE);
       sums[t] += v;
       barrier(CLK_LOCAL_MEM_FENCE);
     }
     uint at = base + sums[t] - count;
-    const uint tile_total = sums[255];
+    const uint tile_total = sums[width - 1];
     barrier(CLK_LOCAL_MEM_FENCE);  // every work-item has read sums before the next tile writes it
     for (int k = 0; k < 4; ++k) {
       if (kp[k].response == 0) continue;
@@ -364,6 +373,14 @@ void compact_group(__global const porta_keypoint* cells, const int total_cells, 
     out[2] = (uchar)((base >> 16) & 0xFF);
     out[3] = (uchar)(base >> 24);
   }
+}
+
+// Compaction in one 256-wide work-group (GPUs; compact_count/scan/scatter elsewhere).
+__kernel __attribute__((reqd_work_group_size(256, 1, 1)))
+void compact_group(__global const porta_keypoint* cells, const int total_cells, __global porta_keypoint* items,
+                   const uint capacity, __global uchar* count_bytes, const ulong count_offset) {
+  __local uint sums[256];
+  porta_compact_in_group(cells, total_cells, items, capacity, count_bytes, count_offset, sums, 256);
 }
 
 // §3.3 FAST CRF on GPUs (as fast_crf): one 32 x 8 work-group per tile of any level (`tiles`), one
@@ -406,4 +423,70 @@ void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
   const porta_plane dst = response_layout.level[n];
   __global ushort* out = (__global ushort*)((__global uchar*)responses + dst.offset_bytes);
   out[(long)y * dst.pitch + x] = response;
+}
+
+// §3.3-§3.5 and the compaction of a small frame in one 1024-wide work-group (GPUs; the backend
+// picks it for at most PORTA_GROUP_CELLS cells): FAST and culling fused (no response plane: each
+// work-item takes pixels of the cells' area, and a cell's maximum is an atomic_max of the key
+// (response << 20) | (0xFFFFF - row-major index in the cell), the largest response with ties to
+// the smaller row, then column, as cull_cells), then PFA (when use_pfa) and the compaction, a
+// barrier between the steps instead of a launch. The same bytes in `cells` and the list as
+// fast_crf, cull_cells, pfa_filter and compact_keypoints.
+#define PORTA_GROUP_CELLS 512
+__kernel __attribute__((reqd_work_group_size(1024, 1, 1)))
+void detect_group(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
+                  const porta_cells grid, const int eps, const int edge, const int end_cell,
+                  __global porta_keypoint* cells, const int use_pfa, const porta_pfa p, __global uint* sum_map,
+                  __global uint* level_map, __global uchar* rejected, const int total_cells,
+                  __global porta_keypoint* items, const uint capacity, __global uchar* count_bytes,
+                  const ulong count_offset) {
+  __local uint best[PORTA_GROUP_CELLS];
+  __local uint sums[1024];
+  const int t = (int)get_local_id(0);
+  for (int i = t; i < end_cell; i += 1024) best[i] = 0u;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int n = 0; n < grid.count; ++n) {
+    const porta_level_cells g = grid.level[n];
+    const porta_plane src = layout.level[n];
+    // Pixels of the level's cells that FAST may give a response (at least `edge` inside).
+    const int xa = edge, xb = min(g.cols * g.cell_w, src.width - edge);
+    const int ya = edge, yb = min(g.rows * g.cell_h, src.height - edge);
+    if (xb <= xa || yb <= ya) continue;
+    const int w = xb - xa;
+    for (int k = t; k < w * (yb - ya); k += 1024) {
+      const int y = ya + k / w;
+      const int x = xa + k % w;
+      const ushort r = porta_fast_response(pyramid + src.offset_bytes + (long)y * src.pitch + x, src.pitch, lut, eps);
+      if (r == 0) continue;
+      const int cx = x / g.cell_w, cy = y / g.cell_h;
+      const int x0 = cx * g.cell_w, y0 = cy * g.cell_h;
+      const int cell_width = min(x0 + g.cell_w, src.width) - x0;
+      const uint index = (uint)((y - y0) * cell_width + (x - x0));
+      atomic_max(&best[g.first_cell + cy * g.cols + cx], ((uint)r << 20) | (0xFFFFFu - index));
+    }
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int i = t; i < end_cell; i += 1024) {
+    const int n = porta_locate_cell(&grid, i);
+    if (n < 0) continue;  // no level has this cell: cull_cells leaves it as it is
+    const porta_level_cells g = grid.level[n];
+    const uint key = best[i];
+    const ushort r = (ushort)(key >> 20);
+    porta_keypoint kp = porta_cell_keypoint(0, 0, 0, 0);
+    if (r > 0) {
+      const int c = i - g.first_cell;
+      const int cy = c / g.cols, cx = c - cy * g.cols;
+      const int x0 = cx * g.cell_w, y0 = cy * g.cell_h;
+      const int cell_width = min(x0 + g.cell_w, layout.level[n].width) - x0;
+      const int index = (int)(0xFFFFFu - (key & 0xFFFFFu));
+      kp = porta_cell_keypoint(r, x0 + index % cell_width, y0 + index / cell_width, n);
+    }
+    cells[i] = kp;
+  }
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  if (use_pfa) {
+    porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+  }
+  porta_compact_in_group(cells, total_cells, items, capacity, count_bytes, count_offset, sums, 1024);
 }

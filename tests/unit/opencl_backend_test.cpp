@@ -1,15 +1,20 @@
 // The OpenCL backend's own choices (the bytes of its kernels are the equivalence suite's business):
-// the kernels it picks by device type, and the environment switches that override them. Skips,
-// saying why, when this build has no OpenCL backend or the machine no OpenCL device.
+// the kernels it picks by device type, and the environment switches that override them; a small
+// frame's detection in one launch, byte for byte the cpu backend's. Skips, saying why, when this
+// build has no OpenCL backend or the machine no OpenCL device.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <optional>
 #include <string>
 
+#include "porta/frontend.hpp"
+#include "porta/kernel_profile.hpp"
 #include "porta/registry.hpp"
 #include "support/backends.hpp"
+#include "support/test_images.hpp"
 
 #if PORTA_HAVE_OPENCL_BACKEND
 #include "opencl/opencl_backend.hpp"
@@ -84,6 +89,71 @@ TEST_F(OpenClBackendTest, FusedPyramidSwitchOverridesTheDefaultAndRejectsOtherVa
   } catch (const BackendError& e) {
     EXPECT_NE(std::string(e.what()).find("PORTA_OPENCL_FUSED_PYRAMID must be on or off, got 'yes'"),
               std::string::npos)
+        << e.what();
+  }
+}
+
+std::uint64_t dispatches_of(const std::vector<KernelTime>& times, const char* kernel) {
+  for (const KernelTime& t : times)
+    if (t.kernel == kernel) return t.dispatches;
+  return 0;
+}
+
+bool same_bytes(const Features& a, const Features& b) {
+  return a.keypoints.size() == b.keypoints.size() && a.descriptors.size() == b.descriptors.size() &&
+         std::memcmp(a.keypoints.data(), b.keypoints.data(), a.keypoints.size() * sizeof(Keypoint)) == 0 &&
+         std::memcmp(a.descriptors.data(), b.descriptors.data(), a.descriptors.size() * sizeof(Descriptor)) == 0;
+}
+
+TEST_F(OpenClBackendTest, SmallFrameDetectsInOneLaunchWithTheCpuBackendsBytes) {
+  // The work-group kernels forced on (PoCL runs them as loops): detect_group takes a frame of at
+  // most 512 cells and 2^17 pixels, the four kernels anything larger. Each is checked against the
+  // cpu backend, keypoints and descriptors byte for byte, with PFA on and off, cells of 32 and 16
+  // pixels, one and two levels, a frame too large for one group, and the group switched off.
+  ScopedEnv groups("PORTA_OPENCL_WORK_GROUPS", "on");
+  struct Case {
+    int width, height, levels, cell;
+    bool pfa;
+    const char* env;  // PORTA_OPENCL_DETECT_GROUP
+    bool one_launch;
+  };
+  const Case cases[] = {
+      {320, 240, 1, 32, true, "", true},   {320, 240, 1, 16, true, "", true},  {320, 240, 1, 32, false, "", true},
+      {256, 200, 2, 32, true, "", true},   {640, 480, 1, 32, true, "", false},  // 307 200 pixels
+      {320, 240, 1, 8, true, "", false},                                        // 1 200 cells
+      {320, 240, 1, 32, true, "off", false},
+  };
+  auto cpu = BackendRegistry::instance().create("cpu", {});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::to_string(c.width) + "x" + std::to_string(c.height) + " levels " + std::to_string(c.levels) +
+                 " cell " + std::to_string(c.cell) + (c.pfa ? " pfa" : " no pfa") + " env '" + c.env + "'");
+    ScopedEnv group_switch("PORTA_OPENCL_DETECT_GROUP", c.env);
+    BackendOptions options;
+    options.profile_kernels = true;
+    opencl::OpenClBackend backend(options);
+    FrontendSettings settings;
+    settings.levels = c.levels;
+    settings.cell_width = settings.cell_height = c.cell;
+    settings.pfa = c.pfa;
+    const Image left = test::textured_image(c.width, c.height, 11), right = test::shifted_right(left, 5);
+    Frontend on_cl(backend, settings, c.width, c.height), on_cpu(*cpu, settings, c.width, c.height);
+    const StereoFeatures got = on_cl.detect_stereo(left.view(), right.view());
+    const StereoFeatures want = on_cpu.detect_stereo(left.view(), right.view());
+    ASSERT_GT(want.left.keypoints.size(), 10u) << "the test image should have corners";
+    EXPECT_TRUE(same_bytes(got.left, want.left));
+    EXPECT_TRUE(same_bytes(got.right, want.right));
+    ASSERT_EQ(got.matches.size(), want.matches.size());
+    EXPECT_EQ(std::memcmp(got.matches.data(), want.matches.data(), got.matches.size() * sizeof(StereoMatch)), 0);
+    const std::vector<KernelTime> times = backend.kernel_times(true);
+    EXPECT_EQ(dispatches_of(times, "detect_group"), c.one_launch ? 2u : 0u) << "one launch per image";
+    EXPECT_EQ(dispatches_of(times, "fast_tiled"), c.one_launch ? 0u : 2u);
+  }
+  ScopedEnv bad("PORTA_OPENCL_DETECT_GROUP", "yes");
+  try {
+    const opencl::OpenClBackend backend;
+    FAIL() << "PORTA_OPENCL_DETECT_GROUP=yes was accepted";
+  } catch (const BackendError& e) {
+    EXPECT_NE(std::string(e.what()).find("PORTA_OPENCL_DETECT_GROUP must be on or off, got 'yes'"), std::string::npos)
         << e.what();
   }
 }

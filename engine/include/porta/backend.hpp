@@ -223,6 +223,16 @@ class Backend {
   /// and writes their number into its count. `out.capacity` >= total cells.
   virtual void compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) = 0;
 
+  /// §3.3-§3.5 and the compaction as the frontend runs them: fast_crf, cull_cells, pfa_filter
+  /// (when `pfa` is not null) and compact_keypoints, with the same arguments and the same bytes in
+  /// `cells` and `out`. The default makes those four calls; a backend may override it to run them
+  /// in fewer launches where it pays (opencl on a GPU: one work-group for a small frame), and may
+  /// then leave `responses` unwritten.
+  virtual void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                                Buffer& responses, const PyramidLayout& response_layout, const FastParams& fast,
+                                const CellLayout& cell_layout, Buffer& cells, const PfaParams* pfa,
+                                DeviceList out);
+
   /// §3.6: sets angle_bin of each listed keypoint from the intensity centroid on the unblurred
   /// level. `umax` is build_orientation_umax(); `boundaries` build_orientation_boundaries(bins).
   virtual void orient(const Buffer& pyramid, const PyramidLayout& layout, DeviceList keypoints,
