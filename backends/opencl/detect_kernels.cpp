@@ -122,11 +122,8 @@ ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaPar
   return p;
 }
 
-/// detect_group's limits (detect.cl): its cells' keys in local memory, a key's 20 bits of pixel
-/// index within a cell, and a frame small enough for one work-group's FAST.
-constexpr std::int64_t kGroupCells = 512;  // PORTA_GROUP_CELLS
-constexpr std::int64_t kGroupCellPixels = std::int64_t{1} << 20;
-constexpr std::int64_t kGroupFramePixels = std::int64_t{1} << 17;
+/// pfa_compact_group's most cells (its work-items loop over them; as kPfaGroupCells).
+constexpr int kPfaCompactGroupCells = 512;
 
 }  // namespace
 
@@ -225,27 +222,32 @@ void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
          blocks, *out.items, static_cast<cl_uint>(capacity));
 }
 
-// §3.3-§3.5 and the compaction. A small frame on a GPU: one 1024-wide work-group does all of it
-// (detect_group), one launch where the four calls take four (a frame of 320x240 pixels is bound by
-// the host's enqueues, ~5 us each on NVIDIA's OpenCL); the same checks and the same bytes.
+// §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST and culling in one launch
+// (fast_cull_group: no response plane), then PFA and the compaction in one work-group for a few
+// hundred cells (pfa_compact_group), so a 320x240 frame is two launches where the four calls take
+// four (NVIDIA's OpenCL costs the host ~5 us per enqueue); the same checks and the same bytes.
 void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                                      Buffer& responses, const PyramidLayout& response_layout,
                                      const FastParams& fast, const CellLayout& cell_layout, Buffer& cells,
                                      const PfaParams* pfa, DeviceList out) {
-  const auto four_calls = [&] {
+  bool regular = true;
+  for (const LevelCells& c : cell_layout.levels) regular = regular && c.cell_w > 0 && c.cell_h > 0;
+  if (!fused_detect() || !regular) {
     Backend::detect_keypoints(pyramid, layout, lut, responses, response_layout, fast, cell_layout, cells, pfa, out);
-  };
-  if (!detect_group() || max_work_group() < 1024) return four_calls();
-  std::int64_t pixels = 0;
-  for (const Plane& p : layout.levels) pixels += static_cast<std::int64_t>(std::max(p.width, 0)) * std::max(p.height, 0);
-  bool small = pixels <= kGroupFramePixels;
-  for (const LevelCells& c : cell_layout.levels)
-    small = small && c.cell_w > 0 && c.cell_h > 0 && static_cast<std::int64_t>(c.cell_w) * c.cell_h <= kGroupCellPixels;
-  if (!small) return four_calls();
+    return;
+  }
   check_fast(pyramid, layout, lut, responses, response_layout, fast);
   const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
+  if (end_cell > 0)
+    launch("detect", "fast_cull_group", Range::linear(static_cast<std::size_t>(end_cell) * 64, 64), pyramid,
+           to_cl(layout), lut, to_cl(cell_layout), static_cast<cl_int>(fast.threshold),
+           static_cast<cl_int>(fast.edge), cells);
   const int total = cell_layout.total_cells;
-  if (end_cell < 1 || end_cell > kGroupCells || total < 1 || total > kGroupCells) return four_calls();
+  if (total < 1 || total > kPfaCompactGroupCells || max_work_group() < 1024) {
+    if (pfa != nullptr) pfa_filter(cells, cell_layout, *pfa);
+    compact_keypoints(cells, total, out);
+    return;
+  }
   ClPfa p{};
   if (pfa != nullptr) p = check_pfa(cells, cell_layout, *pfa);
   const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
@@ -255,10 +257,9 @@ void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
   Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
   const Buffer& items = capacity > 0 ? *out.items : cells;
-  launch("detect", "detect_group", Range::linear(1024, 1024), pyramid, to_cl(layout), lut, to_cl(cell_layout),
-         static_cast<cl_int>(fast.threshold), static_cast<cl_int>(fast.edge), static_cast<cl_int>(end_cell), cells,
-         static_cast<cl_int>(pfa != nullptr ? 1 : 0), p, sum_map, level_map, rejected, static_cast<cl_int>(total),
-         items, static_cast<cl_uint>(capacity), *out.count, static_cast<cl_ulong>(out.count_offset_bytes));
+  launch("detect", "pfa_compact_group", Range::linear(1024, 1024), cells, static_cast<cl_int>(pfa != nullptr ? 1 : 0),
+         p, sum_map, level_map, rejected, static_cast<cl_int>(total), items, static_cast<cl_uint>(capacity),
+         *out.count, static_cast<cl_ulong>(out.count_offset_bytes));
 }
 
 }  // namespace porta::opencl

@@ -86,8 +86,8 @@ class OpenClBackend final : public Backend {
   PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
-  /// On a GPU (work_groups()), a frame of at most 512 cells and 2^17 pixels in one launch
-  /// (detect_group); otherwise, or with $PORTA_OPENCL_DETECT_GROUP=off, the four kernels' launches.
+  /// With fused_detect(): FAST and culling in one launch, PFA and compaction in one more for up to
+  /// 512 cells; otherwise the four kernels' launches.
   void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
                         const PyramidLayout& response_layout, const FastParams& fast, const CellLayout& cell_layout,
                         Buffer& cells, const PfaParams* pfa, DeviceList out) override;
@@ -118,9 +118,9 @@ class OpenClBackend final : public Backend {
   /// pay; a CPU device (PoCL) runs work-items as loops, and there they are slower. $PORTA_OPENCL_WORK_GROUPS=on or off overrides (the equivalence suite
   /// runs both kinds on PoCL). The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
-  /// Whether detect_keypoints may take its one-work-group path: where work_groups() is on, unless
-  /// $PORTA_OPENCL_DETECT_GROUP=off (on forces it on a CPU device too, for tests).
-  bool detect_group() const { return detect_group_; }
+  /// Whether detect_keypoints fuses its kernels (fast_cull_group, pfa_compact_group): where
+  /// work_groups() is on; $PORTA_OPENCL_FUSED_DETECT=on or off overrides.
+  bool fused_detect() const { return fused_detect_; }
   /// Whether build_pyramid builds levels 1..m in one launch (build_pyramid_fused): by default
   /// where work_groups() is on; $PORTA_OPENCL_FUSED_PYRAMID=on or off overrides.
   bool fused_pyramid() const { return fused_pyramid_; }
@@ -171,7 +171,7 @@ class OpenClBackend final : public Backend {
   bool fused_pyramid_ = false;
   bool profile_kernels_ = false;
   bool work_groups_ = false;
-  bool detect_group_ = false;
+  bool fused_detect_ = false;
   std::size_t max_work_group_ = 0;
   struct TimedDispatch {
     int queue;

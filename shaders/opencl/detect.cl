@@ -425,68 +425,60 @@ void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
   out[(long)y * dst.pitch + x] = response;
 }
 
-// §3.3-§3.5 and the compaction of a small frame in one 1024-wide work-group (GPUs; the backend
-// picks it for at most PORTA_GROUP_CELLS cells): FAST and culling fused (no response plane: each
-// work-item takes pixels of the cells' area, and a cell's maximum is an atomic_max of the key
-// (response << 20) | (0xFFFFF - row-major index in the cell), the largest response with ties to
-// the smaller row, then column, as cull_cells), then PFA (when use_pfa) and the compaction, a
-// barrier between the steps instead of a launch. The same bytes in `cells` and the list as
-// fast_crf, cull_cells, pfa_filter and compact_keypoints.
-#define PORTA_GROUP_CELLS 512
+// §3.3 and §3.4 fused on GPUs (the backend's detect_keypoints): one 64-wide work-group per cell of
+// every level computes FAST on the cell's pixels straight from the pyramid and keeps their
+// maximum, with no response plane between them. The key (response << 32) | ~(row-major index in
+// the cell) and the reduction are cull_cells_group's; the pixels within `edge` of the border have
+// response 0, as fast_crf gives them. The same cell records as fast_crf then cull_cells.
+__kernel __attribute__((reqd_work_group_size(64, 1, 1)))
+void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
+                     const porta_cells grid, const int eps, const int edge, __global porta_keypoint* out) {
+  __local ulong best[64];
+  const int cell = (int)get_group_id(0);
+  const int lid = (int)get_local_id(0);
+  const int n = porta_locate_cell(&grid, cell);
+  if (n < 0) return;  // the whole group: `cell` is uniform
+  const porta_level_cells g = grid.level[n];
+  const porta_plane src = layout.level[n];
+  const int index = cell - g.first_cell;
+  const int cy = index / g.cols, cx = index - cy * g.cols;
+  const int x0 = cx * g.cell_w, y0 = cy * g.cell_h;
+  const int w = min(x0 + g.cell_w, src.width) - x0, h = min(y0 + g.cell_h, src.height) - y0;
+  ulong key = 0;
+  for (int i = lid; i < w * h; i += 64) {
+    const int dy = i / w;
+    const int x = x0 + i - dy * w, y = y0 + dy;
+    if (y < edge || y >= src.height - edge || x < edge || x >= src.width - edge) continue;
+    const ulong r =
+        (ulong)porta_fast_response(pyramid + src.offset_bytes + (long)y * src.pitch + x, src.pitch, lut, eps);
+    const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
+    key = r > 0 && k > key ? k : key;
+  }
+  best[lid] = key;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int stride = 32; stride > 0; stride >>= 1) {
+    if (lid < stride && best[lid + stride] > best[lid]) best[lid] = best[lid + stride];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid != 0) return;
+  const ulong k = best[0];
+  const ushort r = (ushort)(k >> 32);
+  const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
+  out[cell] = r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
+}
+
+// §3.5 and the compaction of at most a few hundred cells in one 1024-wide work-group (GPUs; the
+// backend's detect_keypoints): pfa_group's steps when use_pfa (uniform), a barrier, then
+// compact_group's scan with 1024 work-items. The same bytes as pfa_filter then compact_keypoints.
 __kernel __attribute__((reqd_work_group_size(1024, 1, 1)))
-void detect_group(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
-                  const porta_cells grid, const int eps, const int edge, const int end_cell,
-                  __global porta_keypoint* cells, const int use_pfa, const porta_pfa p, __global uint* sum_map,
-                  __global uint* level_map, __global uchar* rejected, const int total_cells,
-                  __global porta_keypoint* items, const uint capacity, __global uchar* count_bytes,
-                  const ulong count_offset) {
-  __local uint best[PORTA_GROUP_CELLS];
+void pfa_compact_group(__global porta_keypoint* cells, const int use_pfa, const porta_pfa p, __global uint* sum_map,
+                       __global uint* level_map, __global uchar* rejected, const int total_cells,
+                       __global porta_keypoint* items, const uint capacity, __global uchar* count_bytes,
+                       const ulong count_offset) {
   __local uint sums[1024];
-  const int t = (int)get_local_id(0);
-  for (int i = t; i < end_cell; i += 1024) best[i] = 0u;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int n = 0; n < grid.count; ++n) {
-    const porta_level_cells g = grid.level[n];
-    const porta_plane src = layout.level[n];
-    // Pixels of the level's cells that FAST may give a response (at least `edge` inside).
-    const int xa = edge, xb = min(g.cols * g.cell_w, src.width - edge);
-    const int ya = edge, yb = min(g.rows * g.cell_h, src.height - edge);
-    if (xb <= xa || yb <= ya) continue;
-    const int w = xb - xa;
-    for (int k = t; k < w * (yb - ya); k += 1024) {
-      const int y = ya + k / w;
-      const int x = xa + k % w;
-      const ushort r = porta_fast_response(pyramid + src.offset_bytes + (long)y * src.pitch + x, src.pitch, lut, eps);
-      if (r == 0) continue;
-      const int cx = x / g.cell_w, cy = y / g.cell_h;
-      const int x0 = cx * g.cell_w, y0 = cy * g.cell_h;
-      const int cell_width = min(x0 + g.cell_w, src.width) - x0;
-      const uint index = (uint)((y - y0) * cell_width + (x - x0));
-      atomic_max(&best[g.first_cell + cy * g.cols + cx], ((uint)r << 20) | (0xFFFFFu - index));
-    }
-  }
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int i = t; i < end_cell; i += 1024) {
-    const int n = porta_locate_cell(&grid, i);
-    if (n < 0) continue;  // no level has this cell: cull_cells leaves it as it is
-    const porta_level_cells g = grid.level[n];
-    const uint key = best[i];
-    const ushort r = (ushort)(key >> 20);
-    porta_keypoint kp = porta_cell_keypoint(0, 0, 0, 0);
-    if (r > 0) {
-      const int c = i - g.first_cell;
-      const int cy = c / g.cols, cx = c - cy * g.cols;
-      const int x0 = cx * g.cell_w, y0 = cy * g.cell_h;
-      const int cell_width = min(x0 + g.cell_w, layout.level[n].width) - x0;
-      const int index = (int)(0xFFFFFu - (key & 0xFFFFFu));
-      kp = porta_cell_keypoint(r, x0 + index % cell_width, y0 + index / cell_width, n);
-    }
-    cells[i] = kp;
-  }
-  barrier(CLK_GLOBAL_MEM_FENCE);
   if (use_pfa) {
     porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
-    barrier(CLK_GLOBAL_MEM_FENCE);
+    barrier(CLK_GLOBAL_MEM_FENCE);  // the cleared cells are read by other work-items below
   }
   porta_compact_in_group(cells, total_cells, items, capacity, count_bytes, count_offset, sums, 1024);
 }

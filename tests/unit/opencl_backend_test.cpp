@@ -105,29 +105,29 @@ bool same_bytes(const Features& a, const Features& b) {
          std::memcmp(a.descriptors.data(), b.descriptors.data(), a.descriptors.size() * sizeof(Descriptor)) == 0;
 }
 
-TEST_F(OpenClBackendTest, SmallFrameDetectsInOneLaunchWithTheCpuBackendsBytes) {
-  // The work-group kernels forced on (PoCL runs them as loops): detect_group takes a frame of at
-  // most 512 cells and 2^17 pixels, the four kernels anything larger. Each is checked against the
-  // cpu backend, keypoints and descriptors byte for byte, with PFA on and off, cells of 32 and 16
-  // pixels, one and two levels, a frame too large for one group, and the group switched off.
+TEST_F(OpenClBackendTest, FusedDetectionGivesTheCpuBackendsBytesInFewerLaunches) {
+  // The work-group kernels forced on (PoCL runs them as loops): FAST with culling in one launch
+  // (fast_cull_group), PFA with the compaction in one more up to 512 cells (pfa_compact_group),
+  // the separate launches beyond. Each checked against the cpu backend, keypoints, descriptors and
+  // matches byte for byte: PFA on and off, cells of 32, 16 and 8 pixels, one, two and eight levels,
+  // and the fusion switched off.
   ScopedEnv groups("PORTA_OPENCL_WORK_GROUPS", "on");
   struct Case {
     int width, height, levels, cell;
     bool pfa;
-    const char* env;  // PORTA_OPENCL_DETECT_GROUP
-    bool one_launch;
+    const char* env;  // PORTA_OPENCL_FUSED_DETECT
+    std::uint64_t fast_cull, pfa_compact;  // dispatches per stereo pair
   };
   const Case cases[] = {
-      {320, 240, 1, 32, true, "", true},   {320, 240, 1, 16, true, "", true},  {320, 240, 1, 32, false, "", true},
-      {256, 200, 2, 32, true, "", true},   {640, 480, 1, 32, true, "", false},  // 307 200 pixels
-      {320, 240, 1, 8, true, "", false},                                        // 1 200 cells
-      {320, 240, 1, 32, true, "off", false},
+      {320, 240, 1, 32, true, "", 2, 2},   {320, 240, 1, 16, true, "", 2, 2},   {320, 240, 1, 32, false, "", 2, 2},
+      {256, 200, 2, 32, true, "", 2, 2},   {320, 240, 1, 8, true, "", 2, 0},  // 1 200 cells
+      {640, 480, 8, 32, true, "", 2, 0},   {320, 240, 1, 32, true, "off", 0, 0},  // 8 levels: 852 cells
   };
   auto cpu = BackendRegistry::instance().create("cpu", {});
   for (const Case& c : cases) {
     SCOPED_TRACE(std::to_string(c.width) + "x" + std::to_string(c.height) + " levels " + std::to_string(c.levels) +
                  " cell " + std::to_string(c.cell) + (c.pfa ? " pfa" : " no pfa") + " env '" + c.env + "'");
-    ScopedEnv group_switch("PORTA_OPENCL_DETECT_GROUP", c.env);
+    ScopedEnv fused_switch("PORTA_OPENCL_FUSED_DETECT", c.env);
     BackendOptions options;
     options.profile_kernels = true;
     opencl::OpenClBackend backend(options);
@@ -145,15 +145,16 @@ TEST_F(OpenClBackendTest, SmallFrameDetectsInOneLaunchWithTheCpuBackendsBytes) {
     ASSERT_EQ(got.matches.size(), want.matches.size());
     EXPECT_EQ(std::memcmp(got.matches.data(), want.matches.data(), got.matches.size() * sizeof(StereoMatch)), 0);
     const std::vector<KernelTime> times = backend.kernel_times(true);
-    EXPECT_EQ(dispatches_of(times, "detect_group"), c.one_launch ? 2u : 0u) << "one launch per image";
-    EXPECT_EQ(dispatches_of(times, "fast_tiled"), c.one_launch ? 0u : 2u);
+    EXPECT_EQ(dispatches_of(times, "fast_cull_group"), c.fast_cull);
+    EXPECT_EQ(dispatches_of(times, "pfa_compact_group"), c.pfa_compact);
+    EXPECT_EQ(dispatches_of(times, "fast_tiled"), c.fast_cull > 0 ? 0u : 2u);
   }
-  ScopedEnv bad("PORTA_OPENCL_DETECT_GROUP", "yes");
+  ScopedEnv bad("PORTA_OPENCL_FUSED_DETECT", "yes");
   try {
     const opencl::OpenClBackend backend;
-    FAIL() << "PORTA_OPENCL_DETECT_GROUP=yes was accepted";
+    FAIL() << "PORTA_OPENCL_FUSED_DETECT=yes was accepted";
   } catch (const BackendError& e) {
-    EXPECT_NE(std::string(e.what()).find("PORTA_OPENCL_DETECT_GROUP must be on or off, got 'yes'"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("PORTA_OPENCL_FUSED_DETECT must be on or off, got 'yes'"), std::string::npos)
         << e.what();
   }
 }
