@@ -17,7 +17,9 @@
 # copy,pinned"), and once more for vulkan and opencl with one queue (PORTA_VULKAN_QUEUES=1,
 # PORTA_OPENCL_QUEUES=1: every call in order, results downloaded after the frame), the way they ran
 # before they had queues (frames-*-one-queue.txt), and with the pyramid's levels in one dispatch
-# (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on: frames-*-fused.txt, kernels-*-fused.txt).
+# (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on: frames-*-fused.txt, kernels-*-fused.txt),
+# and opencl with its detection in four kernels instead of two fused ones (PORTA_OPENCL_FUSED_DETECT=off:
+# frames-*-unfused-detect.txt, kernels-*-unfused-detect.txt).
 # Environment: PORTA_PROFILE_FRAMES (timed frames per cell, default 200; warm-up 20),
 # PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
 # PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh), PORTA_PROFILE_CELLS
@@ -82,6 +84,15 @@ for cell in "${cells[@]}"; do
       --profile-kernels --json "$out_dir/kernels-$name-fused.json" >"$out_dir/kernels-$name-fused.txt" \
       2>>"$out_dir/bench.log" || status=1
   fi
+  if [[ ",$timed," == *",opencl,"* ]]; then
+    say "cell $name: opencl with detection in four kernels (PORTA_OPENCL_FUSED_DETECT=off)"
+    PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend opencl "${common[@]}" "${bench_args[@]}" \
+      --json "$out_dir/frames-$name-unfused-detect.json" >"$out_dir/frames-$name-unfused-detect.txt" \
+      2>>"$out_dir/bench.log" || status=1
+    PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend opencl "${common[@]}" --profile-kernels \
+      --json "$out_dir/kernels-$name-unfused-detect.json" >"$out_dir/kernels-$name-unfused-detect.txt" \
+      2>>"$out_dir/bench.log" || status=1
+  fi
 done
 
 # The host's cost of OpenCL calls on this device (porta_cl_enqueue_bench): what bounds opencl with
@@ -115,6 +126,9 @@ fi
     echo "the pyramid in one dispatch (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-fused.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-fused.txt" 2>/dev/null | grep -E "^(vulkan|opencl),|pyramid|^  all"
+    echo "opencl's detection in four kernels (PORTA_OPENCL_FUSED_DETECT=off):"
+    grep -E '^opencl' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
+    sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then
