@@ -50,6 +50,84 @@ constexpr std::uint32_t kCompactBlock = 128;  // cells per invocation of the com
 /// 15 for ~1 500 (its steps then loop, each a chain of dependent loads on one multiprocessor).
 constexpr int kPfaGroupCells = 512;
 
+/// fast_crf's checks of its arguments.
+void check_fast(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, const Buffer& responses,
+                const PyramidLayout& response_layout, const porta::FastParams& params) {
+  check_same_level_sizes(layout, response_layout, "fast_crf");
+  checks::check_fast_edge(kBackend, params);
+  require_bytes(lut, 65536, "fast_crf", "the FAST table");
+  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
+  for (const Plane& p : response_layout.levels)
+    require_plane_inside(responses, p, 2, "fast_crf", "response level");
+}
+
+/// cull_cells' checks of its arguments; returns the end of the last cell grid (the cells it writes).
+std::int64_t check_cull(const Buffer& responses, const PyramidLayout& response_layout, const CellLayout& cell_layout,
+                        const Buffer& cells) {
+  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
+    throw BackendError("vulkan: cull_cells: the cell layout has " +
+                       std::to_string(cell_layout.levels.size()) + " levels but the responses " +
+                       std::to_string(response_layout.num_levels()));
+  std::int64_t end_cell = 0;
+  for (const LevelCells& c : cell_layout.levels) {
+    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0 || c.cell_w <= 0 || c.cell_h <= 0 ||
+        static_cast<std::int64_t>(c.cell_w) * c.cell_h > (1 << 24))
+      throw BackendError("vulkan: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
+                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
+                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
+    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
+  }
+  for (const Plane& p : response_layout.levels)
+    require_plane_inside(responses, p, 2, "cull_cells", "response level");
+  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells",
+                "the cell array");
+  return end_cell;
+}
+
+/// pfa_filter's checks of its arguments; returns the shaders' parameters (total_cells 0: nothing
+/// to do).
+PfaStepParams check_pfa(const Buffer& cells, const CellLayout& cell_layout, const porta::PfaParams& params) {
+  const int width0 = params.level0_width, height0 = params.level0_height;
+  if (width0 <= 0 || height0 <= 0)
+    throw BackendError("vulkan: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is empty");
+  // The cpu backend throws when it meets a keypoint of a level without a scale; a shader cannot
+  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
+  if (params.scales_q16.size() < cell_layout.levels.size())
+    throw BackendError("vulkan: pfa_filter: " + std::to_string(params.scales_q16.size()) +
+                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
+  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
+  if (pixels0 > std::numeric_limits<std::int32_t>::max() / 4)
+    throw BackendError("vulkan: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
+                       std::to_string(height0) + " is too large");
+  PfaStepParams p{};
+  const int total = cell_layout.total_cells;
+  if (total <= 0) return p;
+  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
+                "pfa_filter", "the cell array");
+  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
+  for (int n = 0; n < num_scales; ++n) p.scales[n] = params.scales_q16[static_cast<std::size_t>(n)];
+  p.total_cells = total;
+  p.num_scales = num_scales;
+  p.width0 = width0;
+  p.height0 = height0;
+  p.reach = params.window / 2;
+  return p;
+}
+
+struct FastCullParams {  // fast_cull.comp (parameter buffer)
+  GlslLevels layout;
+  GlslCells cells;
+  std::int32_t eps, edge, pad[2];
+};
+struct PfaCompactParams {  // pfa_compact_group.comp (push constants): PFA's, then the compaction's
+  PfaStepParams pfa;
+  std::uint32_t use_pfa, capacity, count_offset;
+};
+static_assert(sizeof(PfaCompactParams) <= kMaxPushBytes);
+/// pfa_compact_group.comp's most cells (its invocations loop over them; as kPfaGroupCells).
+constexpr int kPfaCompactGroupCells = 512;
+
 }  // namespace
 
 // §3.3, one dispatch. GPUs: one workgroup per 32 x 8 tile of any level, the tile read once into
@@ -58,12 +136,7 @@ constexpr int kPfaGroupCells = 512;
 void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout,
                              const porta::FastParams& params) {
-  check_same_level_sizes(layout, response_layout, "fast_crf");
-  checks::check_fast_edge(kBackend, params);
-  require_bytes(lut, 65536, "fast_crf", "the FAST table");
-  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
-  for (const Plane& p : response_layout.levels)
-    require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  check_fast(pyramid, layout, lut, responses, response_layout, params);
   if (work_groups()) {
     FastTiledParams t{};
     t.src = to_glsl(layout, "fast_crf");
@@ -89,23 +162,7 @@ void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
 // Small cells: one invocation per cell instead (cull_cells_small.comp), the same bytes.
 void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                                const CellLayout& cell_layout, Buffer& cells) {
-  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
-    throw BackendError("vulkan: cull_cells: the cell layout has " +
-                       std::to_string(cell_layout.levels.size()) + " levels but the responses " +
-                       std::to_string(response_layout.num_levels()));
-  std::int64_t end_cell = 0;
-  for (const LevelCells& c : cell_layout.levels) {
-    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0 || c.cell_w <= 0 || c.cell_h <= 0 ||
-        static_cast<std::int64_t>(c.cell_w) * c.cell_h > (1 << 24))
-      throw BackendError("vulkan: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
-                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
-                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
-    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
-  }
-  for (const Plane& p : response_layout.levels)
-    require_plane_inside(responses, p, 2, "cull_cells", "response level");
-  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells",
-                "the cell array");
+  const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
   std::int64_t largest_cell = 0;
   for (const LevelCells& c : cell_layout.levels)
     largest_cell = std::max(largest_cell, static_cast<std::int64_t>(c.cell_w) * c.cell_h);
@@ -123,31 +180,10 @@ void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
 // last step). GPUs, a few hundred cells: all three in one workgroup (pfa_group.comp); otherwise
 // three dispatches.
 void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, const porta::PfaParams& params) {
-  const int width0 = params.level0_width, height0 = params.level0_height;
-  if (width0 <= 0 || height0 <= 0)
-    throw BackendError("vulkan: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
-                       std::to_string(height0) + " is empty");
-  // The cpu backend throws when it meets a keypoint of a level without a scale; a shader cannot
-  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
-  if (params.scales_q16.size() < cell_layout.levels.size())
-    throw BackendError("vulkan: pfa_filter: " + std::to_string(params.scales_q16.size()) +
-                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
-  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
-  if (pixels0 > std::numeric_limits<std::int32_t>::max() / 4)
-    throw BackendError("vulkan: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
-                       std::to_string(height0) + " is too large");
-  const int total = cell_layout.total_cells;
+  const PfaStepParams p = check_pfa(cells, cell_layout, params);
+  const int total = p.total_cells;
   if (total <= 0) return;
-  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
-                "pfa_filter", "the cell array");
-  PfaStepParams p{};
-  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
-  for (int n = 0; n < num_scales; ++n) p.scales[n] = params.scales_q16[static_cast<std::size_t>(n)];
-  p.total_cells = total;
-  p.num_scales = num_scales;
-  p.width0 = width0;
-  p.height0 = height0;
-  p.reach = params.window / 2;
+  const std::int64_t pixels0 = static_cast<std::int64_t>(p.width0) * p.height0;
   Buffer& sum_map = scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4);
   Buffer& level_map = scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4);
   Buffer& rejected = scratch("pfa_rejected", static_cast<std::size_t>(total));
@@ -197,6 +233,52 @@ void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
   rt().dispatch("compact_scan", {&cells, &blocks, items, out.count}, p, Work::items(1));
   if (capacity > 0)
     rt().dispatch("compact_scatter", {&cells, &blocks, items, out.count}, p, Work::items(num_blocks));
+}
+
+// §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST and culling in one dispatch
+// (fast_cull.comp: no response plane), then PFA and the compaction in one workgroup for a few
+// hundred cells (pfa_compact_group.comp); two dispatches where the four calls take four. The same
+// checks and the same bytes.
+void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                                     Buffer& responses, const PyramidLayout& response_layout,
+                                     const porta::FastParams& fast, const CellLayout& cell_layout, Buffer& cells,
+                                     const porta::PfaParams* pfa, DeviceList out) {
+  if (!fused_detect()) {
+    Backend::detect_keypoints(pyramid, layout, lut, responses, response_layout, fast, cell_layout, cells, pfa, out);
+    return;
+  }
+  check_fast(pyramid, layout, lut, responses, response_layout, fast);
+  const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
+  if (end_cell > 0) {
+    const FastCullParams f{to_glsl(layout, "fast_crf"), to_glsl(cell_layout, "cull_cells"), fast.threshold,
+                           fast.edge, {0, 0}};
+    rt().dispatch("fast_cull", {&pyramid, &lut, &cells}, f, Work::groups(static_cast<std::uint64_t>(end_cell)));
+  }
+  const int total = cell_layout.total_cells;
+  if (total < 1 || total > kPfaCompactGroupCells) {
+    if (pfa != nullptr) pfa_filter(cells, cell_layout, *pfa);
+    compact_keypoints(cells, total, out);
+    return;
+  }
+  PfaCompactParams g{};
+  if (pfa != nullptr) g.pfa = check_pfa(cells, cell_layout, *pfa);
+  g.pfa.total_cells = total;  // the compaction's count whether or not PFA runs
+  if (out.count != nullptr &&
+      (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
+    throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
+                       " is out of range");
+  const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
+  g.use_pfa = pfa != nullptr ? 1u : 0u;
+  g.capacity = static_cast<std::uint32_t>(capacity);
+  g.count_offset = static_cast<std::uint32_t>(out.count_offset_bytes);
+  const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(g.pfa.width0, 1)) * std::max(g.pfa.height0, 1);
+  // Without PFA or items, the cell array stands in for the unused bindings (nothing is written there).
+  Buffer& sum_map = pfa != nullptr ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  const Buffer* items = capacity > 0 ? out.items : &cells;
+  rt().dispatch("pfa_compact_group", {&cells, &sum_map, &level_map, &rejected, items, out.count}, g,
+                Work::groups(1));
 }
 
 }  // namespace porta::vulkan

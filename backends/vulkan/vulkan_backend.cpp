@@ -18,6 +18,11 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   work_groups_ = checks::env_switch("vulkan", "PORTA_VULKAN_WORK_GROUPS", work_groups_);
   // Off by default until measured on a GPU (the bytes are the suite's, on lavapipe).
   fused_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", false);
+  // Detection in fewer dispatches (FAST with culling, PFA with compaction): each dispatch and
+  // barrier saved is device time between kernels and host time recording them.
+  fused_detect_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_DETECT",
+                                     work_groups_ && limits.maxComputeWorkGroupInvocations >= 1024 &&
+                                         limits.maxComputeWorkGroupSize[0] >= 1024);
   // How long the host polls a batch's fence before it blocks: on a GPU a blocking wait's wake-up
   // costs tens of microseconds; a CPU device needs the cores for the batch itself.
   runtime_->set_fence_poll(std::chrono::microseconds(checks::env_int(

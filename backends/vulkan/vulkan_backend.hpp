@@ -104,6 +104,12 @@ class VulkanBackend final : public Backend {
   PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
+  /// With fused_detect(): FAST and culling in one dispatch (fast_cull.comp), PFA and compaction in
+  /// one more up to 512 cells (pfa_compact_group.comp); otherwise the four kernels' dispatches.
+  void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
+                        const PyramidLayout& response_layout, const porta::FastParams& fast,
+                        const CellLayout& cell_layout, Buffer& cells, const porta::PfaParams* pfa,
+                        DeviceList out) override;
 
   VulkanStats stats() const;
   /// True when the Khronos validation layer is active.
@@ -123,6 +129,9 @@ class VulkanBackend final : public Backend {
   /// $PORTA_VULKAN_WORK_GROUPS=on or off overrides (the equivalence suite runs both on lavapipe).
   /// The bytes are the same either way.
   bool work_groups() const { return work_groups_; }
+  /// Whether detect_keypoints fuses its kernels: where work_groups() is on (and the device runs
+  /// workgroups of 1024); $PORTA_VULKAN_FUSED_DETECT=on or off overrides.
+  bool fused_detect() const { return fused_detect_; }
 
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
@@ -132,6 +141,7 @@ class VulkanBackend final : public Backend {
   checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
   /// Whether build_pyramid fuses levels ($PORTA_VULKAN_FUSED_PYRAMID=on; off by default).
   bool fused_pyramid_ = false;
+  bool fused_detect_ = false;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };

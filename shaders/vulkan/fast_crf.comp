@@ -18,9 +18,7 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
   int edge;
 } p;
 
-// The radius-3 Bresenham circle (tables.hpp kFastCircle), clockwise from 12 o'clock.
-const int kDx[16] = int[16](0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -3, -3, -3, -2, -1);
-const int kDy[16] = int[16](-3, -3, -2, -1, 0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -3);
+#include "fast_common.glsl"
 
 void main() {
   const int x = int(gl_GlobalInvocationID.x);
@@ -39,20 +37,8 @@ void main() {
   const Plane d = p.dst.level[n];
   if (x >= d.width) return;
   uint response = 0u;
-  if (y >= p.edge && y < s.height - p.edge && x >= p.edge && x < s.width - p.edge) {
-    const int centre = s.offset_bytes + y * s.pitch + x;
-    const int c = int(pyramid[centre]);
-    uint bright = 0u, dark = 0u;
-    int sum = 0;
-    for (int i = 0; i < 16; ++i) {
-      const int q = int(pyramid[centre + kDy[i] * s.pitch + kDx[i]]);
-      // Two independent tests, as in the contract.
-      if (q > c + p.eps) bright |= 1u << i;
-      if (q < c - p.eps) dark |= 1u << i;
-      sum += abs(q - c);
-    }
-    if ((uint(lut[bright]) | uint(lut[dark])) != 0u) response = uint(sum);  // <= 4080
-  }
+  if (y >= p.edge && y < s.height - p.edge && x >= p.edge && x < s.width - p.edge)
+    response = fast_response(s.offset_bytes + y * s.pitch + x, s.pitch, p.eps);
   // Response planes hold 2-byte elements: offset_bytes is even (checked on the host).
   responses[d.offset_bytes / 2 + y * d.pitch + x] = uint16_t(response);
 }

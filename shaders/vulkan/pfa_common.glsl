@@ -4,12 +4,17 @@
 // are level-0 sized scratch planes, all zero before step A (step C restores that).
 // Needs GL_EXT_shader_explicit_arithmetic_types_int64 (the projection is 64-bit, as on the cpu).
 // A shader that reads the maps another invocation of its workgroup wrote defines PFA_MAPS as
-// `coherent` before including this file.
+// `coherent` before including this file (and PFA_CELLS likewise when others read the cells it
+// clears); one that needs more push constants after these defines
+// PFA_EXTRA_PARAMS as their declarations.
 #ifndef PFA_MAPS
 #define PFA_MAPS
 #endif
 
-layout(std430, set = 0, binding = 0) buffer CellsBuffer { uvec2 cells[]; };
+#ifndef PFA_CELLS
+#define PFA_CELLS
+#endif
+layout(std430, set = 0, binding = 0) PFA_CELLS buffer CellsBuffer { uvec2 cells[]; };
 layout(std430, set = 0, binding = 1) PFA_MAPS buffer SumMap { uint sum_map[]; };
 layout(std430, set = 0, binding = 2) PFA_MAPS buffer LevelMap { uint level_map[]; };
 layout(std430, set = 0, binding = 3) buffer Rejected { uint8_t rejected[]; };
@@ -20,6 +25,9 @@ layout(std430, push_constant) uniform Params {
   int width0;
   int height0;
   int reach;  // q / 2
+#ifdef PFA_EXTRA_PARAMS
+  PFA_EXTRA_PARAMS
+#endif
 } p;
 
 // The keypoint of cell i when it is one PFA looks at (response > 0, a level with a scale).

@@ -1,0 +1,44 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "common.glsl"
+#define PFA_MAPS coherent
+#define PFA_CELLS coherent
+// After PFA's parameters and the host struct's 3 words of padding (PfaCompactParams).
+#define PFA_EXTRA_PARAMS \
+  int pfa_pad0;          \
+  int pfa_pad1;          \
+  int pfa_pad2;          \
+  uint use_pfa;          \
+  uint capacity;         \
+  uint count_offset;
+#include "pfa_common.glsl"
+
+// §3.5 PFA and the compaction of at most a few hundred cells in one workgroup (GPUs; the
+// backend's detect_keypoints): pfa_group.comp's three steps when use_pfa (uniform), then
+// compact_group.comp's scan with 1024 invocations, a barrier instead of a dispatch between them.
+// The same bytes as pfa_filter then compact_keypoints.
+layout(local_size_x = 1024) in;
+
+layout(std430, set = 0, binding = 4) writeonly buffer Items { uvec2 items[]; };
+layout(std430, set = 0, binding = 5) writeonly buffer Count { uint8_t count_bytes[]; };
+
+#define COMPACT_THREADS 1024u
+#include "compact_in_group.glsl"
+
+void main() {
+  const uint total = uint(p.total_cells);
+  const uint t = gl_LocalInvocationID.x;
+  if (p.use_pfa != 0u) {
+    for (uint i = t; i < total; i += 1024u) pfa_accumulate_cell(i);
+    memoryBarrierBuffer();
+    barrier();
+    for (uint i = t; i < total; i += 1024u) pfa_decide_cell(i);
+    memoryBarrierBuffer();
+    barrier();  // every read of the maps is done before step C clears them
+    for (uint i = t; i < total; i += 1024u) pfa_apply_cell(i);
+    memoryBarrierBuffer();
+    barrier();  // the cleared cells are read by other invocations below
+  }
+  compact_in_group(total, p.capacity, p.count_offset);
+}

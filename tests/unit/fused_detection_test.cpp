@@ -1,0 +1,110 @@
+// Backend::detect_keypoints fused on the GPU backends (opencl and vulkan, their work-group
+// kernels forced on so that PoCL and lavapipe run them in CI): FAST with culling in one launch and
+// PFA with the compaction in one more for up to 512 cells, the separate launches beyond, checked
+// against the cpu backend byte for byte (keypoints, descriptors, stereo matches) with PFA on and
+// off, cells of 32, 16 and 8 pixels, one, two and four levels, and the fusion switched off; a bad
+// switch value is a clear error. Skips, saying why, where the backend has no device.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "porta/frontend.hpp"
+#include "porta/kernel_profile.hpp"
+#include "porta/registry.hpp"
+#include "support/backends.hpp"
+#include "support/scoped_env.hpp"
+#include "support/test_images.hpp"
+
+namespace porta {
+namespace {
+
+using test::ScopedEnv;
+
+struct FusedBackend {
+  const char* name;
+  const char* work_groups_env;  // forces the GPU kernels on
+  const char* fused_env;        // the fusion's own switch
+  const char* fast_cull;        // the kernels' names in kernel_times()
+  const char* pfa_compact;
+  const char* fast_alone;
+};
+
+std::uint64_t dispatches_of(const std::vector<KernelTime>& times, const std::string& kernel) {
+  for (const KernelTime& t : times)
+    if (t.kernel == kernel) return t.dispatches;
+  return 0;
+}
+
+bool same_bytes(const Features& a, const Features& b) {
+  return a.keypoints.size() == b.keypoints.size() && a.descriptors.size() == b.descriptors.size() &&
+         std::memcmp(a.keypoints.data(), b.keypoints.data(), a.keypoints.size() * sizeof(Keypoint)) == 0 &&
+         std::memcmp(a.descriptors.data(), b.descriptors.data(), a.descriptors.size() * sizeof(Descriptor)) == 0;
+}
+
+class FusedDetection : public ::testing::TestWithParam<FusedBackend> {};
+
+TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
+  const FusedBackend& b = GetParam();
+  if (!test::backend_available(b.name)) GTEST_SKIP() << b.name << ": no device here (`portaslam backends` says why)";
+  ScopedEnv groups(b.work_groups_env, "on");
+  struct Case {
+    int width, height, levels, cell;
+    bool pfa;
+    const char* fused;                     // the fusion's switch ("": its default)
+    std::uint64_t fast_cull, pfa_compact;  // dispatches per stereo pair
+  };
+  const Case cases[] = {
+      {320, 240, 1, 32, true, "", 2, 2},  {320, 240, 1, 16, true, "", 2, 2},
+      {320, 240, 1, 32, false, "", 2, 2}, {256, 200, 2, 32, true, "", 2, 2},
+      {320, 240, 1, 8, true, "", 2, 0},   // 1 200 cells: PFA and compaction in their own launches
+      {320, 240, 4, 16, true, "", 2, 0},  // 4 levels, 546 cells
+      {320, 240, 1, 32, true, "off", 0, 0},
+  };
+  auto cpu = BackendRegistry::instance().create("cpu", {});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::to_string(c.width) + "x" + std::to_string(c.height) + " levels " + std::to_string(c.levels) +
+                 " cell " + std::to_string(c.cell) + (c.pfa ? " pfa" : " no pfa") + " switch '" + c.fused + "'");
+    ScopedEnv fused(b.fused_env, c.fused);
+    BackendOptions options;
+    options.profile_kernels = true;
+    auto backend = BackendRegistry::instance().create(b.name, options);
+    FrontendSettings settings;
+    settings.levels = c.levels;
+    settings.cell_width = settings.cell_height = c.cell;
+    settings.pfa = c.pfa;
+    const Image left = test::textured_image(c.width, c.height, 11), right = test::shifted_right(left, 5);
+    Frontend on_gpu(*backend, settings, c.width, c.height), on_cpu(*cpu, settings, c.width, c.height);
+    const StereoFeatures got = on_gpu.detect_stereo(left.view(), right.view());
+    const StereoFeatures want = on_cpu.detect_stereo(left.view(), right.view());
+    ASSERT_GT(want.left.keypoints.size(), 10u) << "the test image should have corners";
+    EXPECT_TRUE(same_bytes(got.left, want.left));
+    EXPECT_TRUE(same_bytes(got.right, want.right));
+    ASSERT_EQ(got.matches.size(), want.matches.size());
+    EXPECT_EQ(std::memcmp(got.matches.data(), want.matches.data(), got.matches.size() * sizeof(StereoMatch)), 0);
+    const std::vector<KernelTime> times = backend->kernel_times(true);
+    EXPECT_EQ(dispatches_of(times, b.fast_cull), c.fast_cull);
+    EXPECT_EQ(dispatches_of(times, b.pfa_compact), c.pfa_compact);
+    EXPECT_EQ(dispatches_of(times, b.fast_alone), c.fast_cull > 0 ? 0u : 2u);
+  }
+  ScopedEnv bad(b.fused_env, "yes");
+  try {
+    BackendRegistry::instance().create(b.name, {});
+    FAIL() << b.fused_env << "=yes was accepted";
+  } catch (const BackendError& e) {
+    EXPECT_NE(std::string(e.what()).find(std::string(b.fused_env) + " must be on or off, got 'yes'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, FusedDetection,
+                         ::testing::Values(FusedBackend{"opencl", "PORTA_OPENCL_WORK_GROUPS", "PORTA_OPENCL_FUSED_DETECT",
+                                                        "fast_cull_group", "pfa_compact_group", "fast_tiled"},
+                                           FusedBackend{"vulkan", "PORTA_VULKAN_WORK_GROUPS", "PORTA_VULKAN_FUSED_DETECT",
+                                                        "fast_cull", "pfa_compact_group", "fast_tiled"}),
+                         [](const ::testing::TestParamInfo<FusedBackend>& info) { return std::string(info.param.name); });
+
+}  // namespace
+}  // namespace porta
