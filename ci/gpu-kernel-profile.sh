@@ -18,8 +18,8 @@
 # PORTA_OPENCL_QUEUES=1: every call in order, results downloaded after the frame), the way they ran
 # before they had queues (frames-*-one-queue.txt), and with the pyramid's levels in one dispatch
 # (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on: frames-*-fused.txt, kernels-*-fused.txt),
-# and opencl with its detection in four kernels instead of two fused ones (PORTA_OPENCL_FUSED_DETECT=off:
-# frames-*-unfused-detect.txt, kernels-*-unfused-detect.txt).
+# and with their detection in four kernels instead of two fused ones (PORTA_VULKAN_FUSED_DETECT=off
+# PORTA_OPENCL_FUSED_DETECT=off: frames-*-unfused-detect.txt, kernels-*-unfused-detect.txt).
 # Environment: PORTA_PROFILE_FRAMES (timed frames per cell, default 200; warm-up 20),
 # PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
 # PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh), PORTA_PROFILE_CELLS
@@ -84,14 +84,14 @@ for cell in "${cells[@]}"; do
       --profile-kernels --json "$out_dir/kernels-$name-fused.json" >"$out_dir/kernels-$name-fused.txt" \
       2>>"$out_dir/bench.log" || status=1
   fi
-  if [[ ",$timed," == *",opencl,"* ]]; then
-    say "cell $name: opencl with detection in four kernels (PORTA_OPENCL_FUSED_DETECT=off)"
-    PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend opencl "${common[@]}" "${bench_args[@]}" \
-      --json "$out_dir/frames-$name-unfused-detect.json" >"$out_dir/frames-$name-unfused-detect.txt" \
-      2>>"$out_dir/bench.log" || status=1
-    PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend opencl "${common[@]}" --profile-kernels \
-      --json "$out_dir/kernels-$name-unfused-detect.json" >"$out_dir/kernels-$name-unfused-detect.txt" \
-      2>>"$out_dir/bench.log" || status=1
+  if [ -n "$timed" ]; then
+    say "cell $name: $timed with detection in four kernels (PORTA_*_FUSED_DETECT=off)"
+    PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend "$timed" "${common[@]}" \
+      "${bench_args[@]}" --json "$out_dir/frames-$name-unfused-detect.json" \
+      >"$out_dir/frames-$name-unfused-detect.txt" 2>>"$out_dir/bench.log" || status=1
+    PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend "$timed" "${common[@]}" \
+      --profile-kernels --json "$out_dir/kernels-$name-unfused-detect.json" \
+      >"$out_dir/kernels-$name-unfused-detect.txt" 2>>"$out_dir/bench.log" || status=1
   fi
 done
 
@@ -126,8 +126,8 @@ fi
     echo "the pyramid in one dispatch (PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-fused.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-fused.txt" 2>/dev/null | grep -E "^(vulkan|opencl),|pyramid|^  all"
-    echo "opencl's detection in four kernels (PORTA_OPENCL_FUSED_DETECT=off):"
-    grep -E '^opencl' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
+    echo "detection in four kernels (PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off):"
+    grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
     echo '```'
   done
