@@ -20,19 +20,6 @@ constexpr const char* kBackend = "opencl";
 // Kernels index planes of their element type with cl_int offsets.
 constexpr checks::PlaneLimits kPlanes{true, std::numeric_limits<cl_int>::max()};
 
-void check_same_level_sizes(const PyramidLayout& a, const PyramidLayout& b, const char* call) {
-  checks::check_same_level_sizes(kBackend, call, a, b);
-}
-
-void require_plane_inside(const Buffer& buffer, const Plane& plane, int element_bytes, const char* kernel,
-                          const char* what) {
-  checks::check_plane(kBackend, kernel, what, buffer, plane, element_bytes, kPlanes);
-}
-
-void require_bytes(const Buffer& buffer, std::int64_t bytes, const char* kernel, const std::string& what) {
-  checks::check_bytes(kBackend, kernel, what, buffer, bytes);
-}
-
 // Every level of `layout` with empty levels given no rows; the widest level and the total rows.
 ClLevels rows_of_levels(const PyramidLayout& layout, std::size_t& max_width, std::size_t& rows) {
   ClLevels l = to_cl(layout);
@@ -64,61 +51,27 @@ static_assert(sizeof(ClPfa) == 48 + 5 * 4);
 /// fast_crf's checks of its arguments.
 void check_fast(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, const Buffer& responses,
                 const PyramidLayout& response_layout, const FastParams& params) {
-  check_same_level_sizes(layout, response_layout, "fast_crf");
-  checks::check_fast_edge(kBackend, params);
-  require_bytes(lut, 65536, "fast_crf", "the FAST table");
-  for (const Plane& p : layout.levels) require_plane_inside(pyramid, p, 1, "fast_crf", "pyramid level");
-  for (const Plane& p : response_layout.levels) require_plane_inside(responses, p, 2, "fast_crf", "response level");
+  checks::check_fast(kBackend, pyramid, layout, lut, responses, response_layout, params, kPlanes);
 }
 
 /// cull_cells' checks of its arguments; returns the end of the last cell grid (the cells it writes).
 std::int64_t check_cull(const Buffer& responses, const PyramidLayout& response_layout, const CellLayout& cell_layout,
                         const Buffer& cells) {
-  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
-    throw BackendError("opencl: cull_cells: the cell layout has " + std::to_string(cell_layout.levels.size()) +
-                       " levels but the responses " + std::to_string(response_layout.num_levels()));
-  std::int64_t end_cell = 0;
-  for (const LevelCells& c : cell_layout.levels) {
-    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0)
-      throw BackendError("opencl: cull_cells: invalid cell grid (" + std::to_string(c.cols) + "x" +
-                         std::to_string(c.rows) + " cells of " + std::to_string(c.cell_w) + "x" +
-                         std::to_string(c.cell_h) + " from cell " + std::to_string(c.first_cell) + ")");
-    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
-  }
-  for (const Plane& p : response_layout.levels)
-    require_plane_inside(responses, p, 2, "cull_cells", "response level");
-  require_bytes(cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)), "cull_cells", "the cell array");
-  return end_cell;
+  return checks::check_cull(kBackend, responses, response_layout, cell_layout, cells, 0, kPlanes);
 }
 
 /// pfa_filter's checks of its arguments; returns the kernels' parameters (total_cells 0: nothing
-/// to do).
+/// to do). The maps are indexed with 32-bit offsets of 4-byte entries.
 ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
-  const int width0 = params.level0_width, height0 = params.level0_height;
-  if (width0 <= 0 || height0 <= 0)
-    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
-                       std::to_string(height0) + " is empty");
-  // The cpu backend throws when it meets a keypoint of a level without a scale; the device cannot
-  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
-  if (params.scales_q16.size() < cell_layout.levels.size())
-    throw BackendError("opencl: pfa_filter: " + std::to_string(params.scales_q16.size()) +
-                       " level scales for " + std::to_string(cell_layout.levels.size()) + " cell levels");
-  const std::int64_t pixels0 = static_cast<std::int64_t>(width0) * height0;
-  if (pixels0 > std::numeric_limits<std::uint32_t>::max() / 4)
-    throw BackendError("opencl: pfa_filter: level-0 size " + std::to_string(width0) + "x" +
-                       std::to_string(height0) + " is too large");
+  const checks::PfaSetup setup = checks::check_pfa(kBackend, cells, cell_layout, params,
+                                                   std::numeric_limits<std::uint32_t>::max() / 4);
   ClPfa p{};
-  const int total = cell_layout.total_cells;
-  if (total <= 0) return p;
-  require_bytes(cells, static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)),
-                "pfa_filter", "the cell array");
-  const int num_scales = static_cast<int>(std::min<std::size_t>(params.scales_q16.size(), kMaxLevels));
-  for (int n = 0; n < num_scales; ++n) p.scales.v[n] = params.scales_q16[static_cast<std::size_t>(n)];
-  p.total_cells = total;
-  p.num_scales = num_scales;
-  p.width0 = width0;
-  p.height0 = height0;
-  p.reach = params.window / 2;
+  for (int n = 0; n < setup.num_scales; ++n) p.scales.v[n] = setup.scales[static_cast<std::size_t>(n)];
+  p.total_cells = setup.total_cells;
+  p.num_scales = setup.num_scales;
+  p.width0 = setup.width0;
+  p.height0 = setup.height0;
+  p.reach = setup.reach;
   return p;
 }
 

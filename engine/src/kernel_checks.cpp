@@ -140,6 +140,70 @@ void check_fast_edge(std::string_view backend, const FastParams& params) {
          "edge " + std::to_string(params.edge) + " is below 3, the radius of the FAST circle; allowed: >= 3");
 }
 
+void check_fast(std::string_view backend, const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                const Buffer& responses, const PyramidLayout& response_layout, const FastParams& params,
+                const PlaneLimits& limits) {
+  check_same_level_sizes(backend, "fast_crf", layout, response_layout);
+  check_fast_edge(backend, params);
+  check_bytes(backend, "fast_crf", "the FAST table", lut, 65536);
+  for (const Plane& p : layout.levels) check_plane(backend, "fast_crf", "pyramid level", pyramid, p, 1, limits);
+  for (const Plane& p : response_layout.levels)
+    check_plane(backend, "fast_crf", "response level", responses, p, 2, limits);
+}
+
+std::int64_t check_cull(std::string_view backend, const Buffer& responses, const PyramidLayout& response_layout,
+                        const CellLayout& cell_layout, const Buffer& cells, std::int64_t max_cell_pixels,
+                        const PlaneLimits& limits) {
+  if (static_cast<int>(cell_layout.levels.size()) != response_layout.num_levels())
+    fail(backend, "cull_cells",
+         "the cell layout has " + std::to_string(cell_layout.levels.size()) + " levels but the responses " +
+             std::to_string(response_layout.num_levels()));
+  std::int64_t end_cell = 0;
+  for (const LevelCells& c : cell_layout.levels) {
+    const bool bad_size = max_cell_pixels > 0 && (c.cell_w <= 0 || c.cell_h <= 0 ||
+                                                  static_cast<std::int64_t>(c.cell_w) * c.cell_h > max_cell_pixels);
+    if (c.cols < 0 || c.rows < 0 || c.first_cell < 0 || bad_size)
+      fail(backend, "cull_cells",
+           "invalid cell grid (" + std::to_string(c.cols) + "x" + std::to_string(c.rows) + " cells of " +
+               std::to_string(c.cell_w) + "x" + std::to_string(c.cell_h) + " from cell " +
+               std::to_string(c.first_cell) + ")");
+    end_cell = std::max(end_cell, static_cast<std::int64_t>(c.first_cell) + c.count());
+  }
+  for (const Plane& p : response_layout.levels)
+    check_plane(backend, "cull_cells", "response level", responses, p, 2, limits);
+  check_bytes(backend, "cull_cells", "the cell array", cells, end_cell * static_cast<std::int64_t>(sizeof(Keypoint)));
+  return end_cell;
+}
+
+PfaSetup check_pfa(std::string_view backend, const Buffer& cells, const CellLayout& cell_layout,
+                   const PfaParams& params, std::int64_t max_pixels0) {
+  const int width0 = params.level0_width, height0 = params.level0_height;
+  if (width0 <= 0 || height0 <= 0)
+    fail(backend, "pfa_filter",
+         "level-0 size " + std::to_string(width0) + "x" + std::to_string(height0) + " is empty");
+  // The cpu backend throws when it meets a keypoint of a level without a scale; a device cannot
+  // throw, so every cell level must have one (cull_cells writes keypoints of those levels only).
+  if (params.scales_q16.size() < cell_layout.levels.size())
+    fail(backend, "pfa_filter",
+         std::to_string(params.scales_q16.size()) + " level scales for " + std::to_string(cell_layout.levels.size()) +
+             " cell levels");
+  if (static_cast<std::int64_t>(width0) * height0 > max_pixels0)
+    fail(backend, "pfa_filter",
+         "level-0 size " + std::to_string(width0) + "x" + std::to_string(height0) + " is too large");
+  PfaSetup p;
+  const int total = cell_layout.total_cells;
+  if (total <= 0) return p;
+  check_bytes(backend, "pfa_filter", "the cell array", cells,
+              static_cast<std::int64_t>(total) * static_cast<std::int64_t>(sizeof(Keypoint)));
+  p.num_scales = static_cast<std::int32_t>(std::min(params.scales_q16.size(), p.scales.size()));
+  for (int n = 0; n < p.num_scales; ++n) p.scales[static_cast<std::size_t>(n)] = params.scales_q16[static_cast<std::size_t>(n)];
+  p.total_cells = total;
+  p.width0 = width0;
+  p.height0 = height0;
+  p.reach = params.window / 2;
+  return p;
+}
+
 std::int64_t compact_capacity(std::string_view backend, const Buffer& cells, int total_cells,
                               const DeviceList& out) {
   if (out.count == nullptr) fail(backend, "compact_keypoints", "the list has no count buffer");

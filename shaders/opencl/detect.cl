@@ -130,6 +130,25 @@ __kernel void cull_cells(__global const ushort* responses, const porta_levels re
   out[cell] = porta_cell_keypoint(best, best_x, best_y, n);
 }
 
+// The end of culling by a 64-wide work-group: each work-item's `key` (response << 32) |
+// ~(row-major index in the cell) reduced to the maximum through `best` (64 entries of local
+// memory), and that maximum written as the record of the cell at (x0, y0), `w` pixels wide, of
+// level n (all zero when its response is 0). Every work-item of the group calls it.
+inline void porta_write_cell_maximum(__local ulong* best, const int lid, const ulong key, const int x0,
+                                     const int y0, const int w, const int n, __global porta_keypoint* out) {
+  best[lid] = key;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int stride = 32; stride > 0; stride >>= 1) {
+    if (lid < stride && best[lid + stride] > best[lid]) best[lid] = best[lid + stride];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid != 0) return;
+  const ulong k = best[0];
+  const ushort r = (ushort)(k >> 32);
+  const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
+  *out = r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
+}
+
 // §3.4 for cells of more than 256 pixels (the backend picks): one 64-wide work-group per cell
 // instead of one work-item. Each work-item scans a strided share of the cell, then the group
 // reduces through local memory. The key (response << 32) | ~(row-major index in the cell) makes
@@ -152,17 +171,7 @@ void cull_cells_group(__global const ushort* responses, const porta_levels respo
     const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
     key = k > key ? k : key;
   }
-  best[lid] = key;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int stride = 32; stride > 0; stride >>= 1) {
-    if (lid < stride && best[lid + stride] > best[lid]) best[lid] = best[lid + stride];
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
-  if (lid != 0) return;
-  const ulong k = best[0];
-  const ushort r = (ushort)(k >> 32);
-  const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
-  out[cell] = r > 0 ? porta_cell_keypoint(r, a.x0 + i % w, a.y0 + i / w, a.level) : porta_cell_keypoint(0, 0, 0, 0);
+  porta_write_cell_maximum(best, lid, key, a.x0, a.y0, w, a.level, out + cell);
 }
 
 // PFA helper: the level-0 location index L = Y * width0 + X of a keypoint, X = (x * S[level]) >> 16
@@ -454,17 +463,7 @@ void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, _
     const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
     key = r > 0 && k > key ? k : key;
   }
-  best[lid] = key;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int stride = 32; stride > 0; stride >>= 1) {
-    if (lid < stride && best[lid + stride] > best[lid]) best[lid] = best[lid + stride];
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
-  if (lid != 0) return;
-  const ulong k = best[0];
-  const ushort r = (ushort)(k >> 32);
-  const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
-  out[cell] = r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
+  porta_write_cell_maximum(best, lid, key, x0, y0, w, n, out + cell);
 }
 
 // §3.5 and the compaction of at most a few hundred cells in one 1024-wide work-group (GPUs; the

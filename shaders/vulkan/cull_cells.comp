@@ -18,18 +18,11 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
   Cells cells;
 } p;
 
-shared uint64_t best[64];
+#include "cull_common.glsl"
 
 void main() {
   const int cell = int(porta_linear_group());
-  int n = -1;
-  for (int i = 0; i < p.cells.count; ++i) {
-    const LevelCells c = p.cells.level[i];
-    if (cell >= c.first_cell && cell - c.first_cell < c.cols * c.rows) {
-      n = i;
-      break;
-    }
-  }
+  const int n = cull_level_of(p.cells, cell);
   if (n < 0) return;  // the whole workgroup: `cell` is uniform
   const LevelCells grid = p.cells.level[n];
   const Plane plane = p.layout_.level[n];
@@ -51,23 +44,5 @@ void main() {
     const uint64_t k = (uint64_t(r) << 32) | uint64_t(0xFFFFFFFFu - uint(i));
     key = k > key ? k : key;
   }
-  best[lid] = key;
-  barrier();
-  for (uint stride = 32u; stride > 0u; stride >>= 1) {
-    if (lid < stride) {
-      const uint64_t other = best[lid + stride];
-      if (other > best[lid]) best[lid] = other;
-    }
-    barrier();
-  }
-  if (lid == 0u) {
-    const uint64_t k = best[0];
-    const uint r = uint(k >> 32);
-    uvec2 kp = uvec2(0u);
-    if (r > 0u) {
-      const int i = int(0xFFFFFFFFu - uint(k & 0xFFFFFFFFul));
-      kp = make_keypoint(uint(x0 + i % w), uint(y0 + i / w), r, uint(n), 0u);
-    }
-    cells_out[cell] = kp;
-  }
+  cull_write_maximum(key, cell, x0, y0, w, n);
 }

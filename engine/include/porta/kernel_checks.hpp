@@ -82,6 +82,33 @@ std::int64_t usable_queries(int num_queries, const Buffer& queries, const Buffer
 /// fast_crf's border: at least 3, the radius of the FAST circle.
 void check_fast_edge(std::string_view backend, const FastParams& params);
 
+/// fast_crf's arguments: the pyramid and response layouts of the same level sizes, the border (as
+/// check_fast_edge), the 65 536-byte FAST table, every level inside its buffer (within `limits`).
+void check_fast(std::string_view backend, const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
+                const Buffer& responses, const PyramidLayout& response_layout, const FastParams& params,
+                const PlaneLimits& limits = {});
+
+/// cull_cells' arguments: a cell grid per response level, none with a negative size or start (and,
+/// where `max_cell_pixels` > 0, every cell non-empty and of at most that many pixels), every
+/// response level inside `responses` (within `limits`), the cells of every grid inside `cells`.
+/// Returns the end of the last grid: the cells culling writes.
+std::int64_t check_cull(std::string_view backend, const Buffer& responses, const PyramidLayout& response_layout,
+                        const CellLayout& cell_layout, const Buffer& cells, std::int64_t max_cell_pixels,
+                        const PlaneLimits& limits = {});
+
+/// PFA's parameters as its kernels take them (DESIGN.md §3.5): the scales of the first
+/// num_scales levels, the cells, the level-0 size and the window's reach (q / 2).
+struct PfaSetup {
+  std::array<std::int32_t, 12> scales{};
+  std::int32_t total_cells = 0, num_scales = 0, width0 = 0, height0 = 0, reach = 0;
+};
+
+/// pfa_filter's arguments: a non-empty level-0 size of at most `max_pixels0` pixels, a scale for
+/// every cell level, the cell array inside `cells`. Returns the kernels' parameters (total_cells
+/// 0: nothing to do, the cells unchecked).
+PfaSetup check_pfa(std::string_view backend, const Buffer& cells, const CellLayout& cell_layout,
+                   const PfaParams& params, std::int64_t max_pixels0);
+
 /// compact_keypoints' arguments: a count buffer holding the count at a non-negative offset, a cell
 /// array of max(total_cells, 0) keypoints. Returns the records that may be written: the capacity,
 /// but never past the end of the items buffer (0 without one).
