@@ -75,8 +75,12 @@ ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaPar
   return p;
 }
 
-/// pfa_compact_group's most cells (its work-items loop over them; as kPfaGroupCells).
-constexpr int kPfaCompactGroupCells = 512;
+/// pfa_compact_group's most cells. Higher than pfa_filter's kPfaGroupCells: one work-group's PFA
+/// over ~1 500 cells (an 8-level 1242x375 frame) costs the device about twice its three launches
+/// (~28 against ~15 us, measured on vulkan), but those are three enqueues and the compaction a
+/// fourth, ~20 us of the host's time on NVIDIA's OpenCL, which bounds opencl with frames in
+/// flight; one frame at a time opencl is well within its target of cuda.
+constexpr int kPfaCompactGroupCells = 4096;
 
 }  // namespace
 
