@@ -180,9 +180,9 @@ void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
 }
 
 // §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST and culling in one launch
-// (fast_cull_group: no response plane), then PFA and the compaction in one work-group for a few
-// hundred cells (pfa_compact_group), so a 320x240 frame is two launches where the four calls take
-// four (NVIDIA's OpenCL costs the host ~5 us per enqueue); the same checks and the same bytes.
+// (fast_cull_group: no response plane), then PFA and the compaction in one work-group up to
+// kPfaCompactGroupCells (pfa_compact_group), so an image is two launches where the four calls take
+// four to six (NVIDIA's OpenCL costs the host ~5 us per enqueue); the same checks and the same bytes.
 void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                                      Buffer& responses, const PyramidLayout& response_layout,
                                      const FastParams& fast, const CellLayout& cell_layout, Buffer& cells,

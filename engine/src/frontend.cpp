@@ -81,6 +81,8 @@ Frontend::Frontend(Backend& backend, const FrontendSettings& settings, int width
                                                                    : tables_.resize.packed);
   boundaries_ = upload_vector(backend_, tables_.orientation_boundaries);
   pattern_ = upload_vector(backend_, tables_.orb_pattern);
+  pfa_ = PfaParams{tables_.scales_q16, pyramid_layout_.levels[0].width, pyramid_layout_.levels[0].height,
+                   tables_.settings.pfa_window};
   const int queues = std::max(backend_.queue_count(), 1);
   downloads_at_submit_ = queues > 1;
   // The slots take queues 0 .. 2 in_flight - 1 (modulo the count): the next one, if any, is free.
@@ -191,18 +193,14 @@ void Frontend::run_side(Slot& slot, Side& side, const ImageView* image, const In
   const DeviceList list = side.list();
   if (!profile) {
     // Detection to the keypoint list in one call: a backend may run it in fewer launches.
-    const PfaParams pfa{tables_.scales_q16, l0.width, l0.height, s.pfa_window};
     backend_.detect_keypoints(*side.pyramid, pyramid_layout_, *lut_, *side.responses, response_layout_, fast,
-                              tables_.cells, *side.cells, s.pfa ? &pfa : nullptr, list);
+                              tables_.cells, *side.cells, s.pfa ? &pfa_ : nullptr, list);
   } else {
     backend_.fast_crf(*side.pyramid, pyramid_layout_, *lut_, *side.responses, response_layout_, fast);
     stage(times.fast_ns);
     backend_.cull_cells(*side.responses, response_layout_, tables_.cells, *side.cells);
     stage(times.cull_ns);
-    if (s.pfa) {
-      backend_.pfa_filter(*side.cells, tables_.cells,
-                          PfaParams{tables_.scales_q16, l0.width, l0.height, s.pfa_window});
-    }
+    if (s.pfa) backend_.pfa_filter(*side.cells, tables_.cells, pfa_);
     backend_.compact_keypoints(*side.cells, tables_.cells.total_cells, list);
     stage(times.pfa_ns);
   }

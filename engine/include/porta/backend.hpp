@@ -226,8 +226,8 @@ class Backend {
   /// §3.3-§3.5 and the compaction as the frontend runs them: fast_crf, cull_cells, pfa_filter
   /// (when `pfa` is not null) and compact_keypoints, with the same arguments and the same bytes in
   /// `cells` and `out`. The default makes those four calls; a backend may override it to run them
-  /// in fewer launches where it pays (opencl on a GPU: one work-group for a small frame), and may
-  /// then leave `responses` unwritten.
+  /// in fewer launches where it pays (vulkan and opencl on GPUs: FAST with culling, then PFA with
+  /// the compaction), and may then leave `responses` unwritten.
   virtual void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                                 Buffer& responses, const PyramidLayout& response_layout, const FastParams& fast,
                                 const CellLayout& cell_layout, Buffer& cells, const PfaParams* pfa,

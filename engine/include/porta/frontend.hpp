@@ -162,6 +162,7 @@ class Frontend {
   PyramidLayout pyramid_layout_;
   PyramidLayout response_layout_;
   std::unique_ptr<Buffer> lut_, resize_, boundaries_, pattern_;
+  PfaParams pfa_;  // PFA's parameters, made once (a frame allocates nothing for them)
   std::vector<std::unique_ptr<Slot>> slots_;
   bool downloads_at_submit_ = false;  // the backend has several queues: results travel back async
   int spare_queue_ = -1;              // spare_queue()
