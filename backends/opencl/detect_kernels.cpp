@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "opencl/cl_types.hpp"
@@ -42,11 +43,10 @@ constexpr int kCompactBlock = 128;  // cells per work-item of the compaction
 /// vulkan: one group is faster for a few hundred cells, slower for ~1 500).
 constexpr int kPfaGroupCells = 512;
 
-struct ClPfa {  // detect.cl porta_pfa
-  ClLevelInts scales;
-  cl_int total_cells, num_scales, width0, height0, reach;
-};
-static_assert(sizeof(ClPfa) == 48 + 5 * 4);
+/// detect.cl's porta_pfa is checks::PfaSetup byte for byte: 12 scales, then total_cells,
+/// num_scales, width0, height0 and reach, all 32-bit (passed to the kernels as it is).
+using ClPfa = checks::PfaSetup;
+static_assert(sizeof(ClPfa) == 48 + 5 * 4 && std::is_trivially_copyable_v<ClPfa>);
 
 /// fast_crf's checks of its arguments.
 void check_fast(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, const Buffer& responses,
@@ -63,16 +63,7 @@ std::int64_t check_cull(const Buffer& responses, const PyramidLayout& response_l
 /// pfa_filter's checks of its arguments; returns the kernels' parameters (total_cells 0: nothing
 /// to do). The maps are indexed with 32-bit offsets of 4-byte entries.
 ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaParams& params) {
-  const checks::PfaSetup setup = checks::check_pfa(kBackend, cells, cell_layout, params,
-                                                   std::numeric_limits<std::uint32_t>::max() / 4);
-  ClPfa p{};
-  for (int n = 0; n < setup.num_scales; ++n) p.scales.v[n] = setup.scales[static_cast<std::size_t>(n)];
-  p.total_cells = setup.total_cells;
-  p.num_scales = setup.num_scales;
-  p.width0 = setup.width0;
-  p.height0 = setup.height0;
-  p.reach = setup.reach;
-  return p;
+  return checks::check_pfa(kBackend, cells, cell_layout, params, std::numeric_limits<std::uint32_t>::max() / 4);
 }
 
 /// pfa_compact_group's most cells. Higher than pfa_filter's kPfaGroupCells: one work-group's PFA
