@@ -4,7 +4,7 @@
 // launches beyond, checked
 // against the cpu backend byte for byte (keypoints, descriptors, stereo matches) with PFA on and
 // off, cells of 32, 16 and 8 pixels, one, two and four levels, and the fusion switched off; a bad
-// switch value is a clear error. Skips, saying why, where the backend has no device.
+// switch value and bad arguments are clear errors. Skips, saying why, where the backend has no device.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -14,6 +14,7 @@
 #include "porta/frontend.hpp"
 #include "porta/kernel_profile.hpp"
 #include "porta/registry.hpp"
+#include "porta/tables.hpp"
 #include "support/backends.hpp"
 #include "support/scoped_env.hpp"
 #include "support/test_images.hpp"
@@ -103,6 +104,50 @@ TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
               std::string::npos)
         << e.what();
   }
+}
+
+TEST_P(FusedDetection, BadArgumentsAreTheSeparateKernelsClearErrors) {
+  // The fused path runs the same argument checks as fast_crf, cull_cells and compact_keypoints:
+  // a cell array too small, a FAST table too small, a list without a count buffer.
+  const FusedBackend& b = GetParam();
+  if (!test::backend_available(b.name)) GTEST_SKIP() << b.name << ": no device here (`portaslam backends` says why)";
+  ScopedEnv groups(b.work_groups_env, "on");
+  ScopedEnv fused(b.fused_env, "on");
+  auto backend = BackendRegistry::instance().create(b.name, {});
+  FrontendSettings settings;
+  settings.levels = 1;
+  const FrontendTables tables = FrontendTables::build(settings, 320, 240);
+  const PyramidLayout layout = PyramidLayout::make(tables.level_sizes, 1);
+  const PyramidLayout responses_layout = PyramidLayout::make(tables.level_sizes, 2);
+  auto pyramid = backend->allocate(static_cast<std::size_t>(layout.total_bytes));
+  auto responses = backend->allocate(static_cast<std::size_t>(responses_layout.total_bytes));
+  auto lut = backend->allocate(65536), small_lut = backend->allocate(16);
+  const auto cells_bytes = static_cast<std::size_t>(tables.cells.total_cells) * sizeof(Keypoint);
+  auto cells = backend->allocate(cells_bytes), small_cells = backend->allocate(cells_bytes / 2);
+  auto items = backend->allocate(cells_bytes), count = backend->allocate(4);
+  const FastParams fast{settings.fast_threshold, settings.edge};
+  const PfaParams pfa{tables.scales_q16, 320, 240, 3};
+  const DeviceList list{items.get(), count.get(), 0, tables.cells.total_cells};
+  const auto expect_error = [&](const char* needle, const auto& call) {
+    try {
+      call();
+      ADD_FAILURE() << "no error; expected one naming '" << needle << "'";
+    } catch (const BackendError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect_error("cull_cells: the cell array", [&] {
+    backend->detect_keypoints(*pyramid, layout, *lut, *responses, responses_layout, fast, tables.cells, *small_cells,
+                              &pfa, list);
+  });
+  expect_error("fast_crf: the FAST table", [&] {
+    backend->detect_keypoints(*pyramid, layout, *small_lut, *responses, responses_layout, fast, tables.cells, *cells,
+                              &pfa, list);
+  });
+  expect_error("compact_keypoints: the list has no count buffer", [&] {
+    backend->detect_keypoints(*pyramid, layout, *lut, *responses, responses_layout, fast, tables.cells, *cells, &pfa,
+                              DeviceList{items.get(), nullptr, 0, tables.cells.total_cells});
+  });
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, FusedDetection,
