@@ -114,12 +114,14 @@ def test_errors_carry_the_messages_the_cli_prints(portaslam_bin, work):
         portaslam.open_dataset("tum", missing)
 
 
-def test_the_example_script_prints_the_ate(sequence, source_dir):
+def test_the_example_script_prints_the_ate(sequence, source_dir, tmp_path):
     import subprocess
     import sys
+    # The script writes trajectory_tum.txt into its working folder: a fresh one, not the checkout.
     done = subprocess.run([sys.executable, str(source_dir / "examples" / "python" / "run_slam.py"), str(sequence)],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "30 of 30 frames tracked" in done.stdout
     ate = float(done.stdout.split("ATE RMSE ")[1].split()[0])
     assert ate < 0.05
+    assert (tmp_path / "trajectory_tum.txt").stat().st_size > 0
