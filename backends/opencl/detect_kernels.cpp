@@ -66,12 +66,11 @@ ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaPar
   return checks::check_pfa(kBackend, cells, cell_layout, params, std::numeric_limits<std::uint32_t>::max() / 4);
 }
 
-/// pfa_compact_group's most cells. Higher than pfa_filter's kPfaGroupCells: one work-group's PFA
-/// over ~1 500 cells (an 8-level 1242x375 frame) costs the device about twice its three launches
-/// (~28 against ~15 us, measured on vulkan), but those are three enqueues and the compaction a
-/// fourth, ~20 us of the host's time on NVIDIA's OpenCL, which bounds opencl with frames in
-/// flight; one frame at a time opencl is well within its target of cuda.
-constexpr int kPfaCompactGroupCells = 4096;
+/// pfa_compact_group's most cells, as vulkan's: each step one round of the work-group. Over the
+/// ~1 500 cells of an 8-level 1242x375 image it takes two, and on the H200 that cost the device
+/// more than the host saved on launches: 234 against 207 us per stereo pair with the separate PFA
+/// and compaction, 4 frames in flight and pinned input, where the device bounds opencl.
+constexpr int kPfaCompactGroupCells = 512;
 
 }  // namespace
 
