@@ -195,48 +195,80 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   const double cpu_start_s = process_cpu_seconds();
   const ThreadCpuSnapshot threads_at_start = thread_cpu_snapshot();
   std::atomic<double> reading_cpu_s{0.0};  // decoding the pairs, on whichever thread reads them
-  const auto load_pair = [&dataset, &reading_cpu_s](std::size_t i) {
-    const double cpu_start = this_thread_cpu_seconds();
-    slam::StereoPair pair = dataset->load(i);
-    const double spent = this_thread_cpu_seconds() - cpu_start;
-    reading_cpu_s.fetch_add(spent);
-    return pair;
-  };
   // As fast as possible, up to read_ahead pairs are read (and for EuRoC rectified) on threads of
   // their own while frames are processed (decoding two PNG images takes longer than a GPU frame).
   // Paced like a camera, a pair is read when it is due: a camera delivers decoded images, so
   // reading files must not compete with SLAM for the cores while a frame is processed.
   const std::size_t read_ahead =
       paced ? 0 : std::clamp<std::size_t>(std::thread::hardware_concurrency() / 2, 1, 4);
-  std::deque<std::future<slam::StereoPair>> reads;
+  // The pairs travel in the System's input images (pinned host memory on cuda): the reader fills
+  // one and the frontend reads it in place, so the frames' thread copies no image. Pair j lies in
+  // inputs[j % inputs.size()], which is free again once pair j - inputs.size() has been tracked:
+  // at most read_ahead + 1 pairs are being read while the frames in flight wait to be tracked.
+  std::vector<slam::StereoInput> inputs(read_ahead + 2 + static_cast<std::size_t>(system.frontend_in_flight()));
+  for (slam::StereoInput& input : inputs) {
+    input.left = system.make_input_image();
+    input.right = system.make_input_image();
+  }
+  // Leaving early (an exception) with frames in flight: the device is done reading the images
+  // before they are freed.
+  struct DeviceDoneWithInputs {
+    Backend& backend;
+    ~DeviceDoneWithInputs() {
+      try {
+        backend.synchronize();
+      } catch (...) {  // a device error here was reported by the call that met it first
+      }
+    }
+  } device_done_with_inputs{*backend};
+  std::size_t tracked_end = options.first;  // every pair before this one has been tracked
+  const auto load_pair = [&dataset, &reading_cpu_s, &inputs](std::size_t i) -> slam::StereoInput* {
+    const double cpu_start = this_thread_cpu_seconds();
+    const slam::StereoPair pair = dataset->load(i);
+    slam::StereoInput& input = inputs[i % inputs.size()];
+    input.index = pair.index;
+    input.time_s = pair.time_s;
+    input.left.assign(pair.left.view());
+    input.right.assign(pair.right.view());
+    reading_cpu_s.fetch_add(this_thread_cpu_seconds() - cpu_start);
+    return &input;
+  };
+  std::deque<std::future<slam::StereoInput*>> reads;
   std::size_t next_request = options.first;  // the next pair to start reading
+  const auto request = [&]() {
+    const std::size_t i = next_request++;
+    if (i >= tracked_end + inputs.size())  // its input images would still be in use
+      throw std::logic_error("run: pair " + std::to_string(i) + " read before pair " +
+                             std::to_string(i - inputs.size()) + " was tracked");
+    return i;
+  };
   // How long the frames' loop waited for each pair (read on this thread when paced, else the wait
   // for a read-ahead thread): what reading costs the frame rate, outside "frame".
   std::vector<std::int64_t> input_wait_ns;
   input_wait_ns.reserve(total);
-  const auto read_next = [&]() -> slam::StereoPair {
+  const auto read_next = [&]() -> const slam::StereoInput& {
     const auto wait_start = std::chrono::steady_clock::now();
     if (read_ahead == 0) {
-      slam::StereoPair pair = load_pair(next_request++);
+      const slam::StereoInput* pair = load_pair(request());
       input_wait_ns.push_back(slam::elapsed_ns(wait_start));
-      return pair;
+      return *pair;
     }
     while (reads.size() < read_ahead + 1 && next_request < end) {
-      const std::size_t i = next_request++;
+      const std::size_t i = request();
       reads.push_back(std::async(std::launch::async, [&load_pair, i] {
         cpu::name_this_thread("porta-reader");
         return load_pair(i);
       }));
     }
-    std::future<slam::StereoPair> read = std::move(reads.front());
+    std::future<slam::StereoInput*> read = std::move(reads.front());
     reads.pop_front();
-    slam::StereoPair pair = read.get();
+    const slam::StereoInput* pair = read.get();
     input_wait_ns.push_back(slam::elapsed_ns(wait_start));
-    return pair;
+    return *pair;
   };
   double first_time_s = 0.0, last_time_s = 0.0;
   const auto submit_next = [&](std::size_t i) {
-    slam::StereoPair pair = read_next();
+    const slam::StereoInput& pair = read_next();
     if (i == options.first) first_time_s = pair.time_s;
     last_time_s = pair.time_s;
     if (paced) {
@@ -252,6 +284,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   for (std::size_t i = options.first; i < end; ++i) {
     if (ahead && i + 1 < end) submit_next(i + 1);  // pair i+1's frontend runs while pair i is tracked
     const slam::TrackingResult result = system.track_next();
+    tracked_end = i + 1;
     if (!ahead && i + 1 < end) submit_next(i + 1);
     ++summary.frames;
     if (result.state == slam::TrackingState::ok) ++summary.tracked;

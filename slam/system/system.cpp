@@ -58,7 +58,6 @@ TrackingResult System::process(const StereoPair& pair) {
 }
 
 void System::submit(const StereoPair& pair) {
-  if (finished_) throw std::logic_error("System::submit called after finish()");
   const StereoCamera& camera = settings_.camera;
   if (pair.left.width() != camera.width || pair.left.height() != camera.height ||
       pair.right.width() != camera.width || pair.right.height() != camera.height) {
@@ -68,11 +67,23 @@ void System::submit(const StereoPair& pair) {
                                 std::to_string(pair.right.height()) + ") but the camera is " +
                                 std::to_string(camera.width) + "x" + std::to_string(camera.height));
   }
-  if (static_cast<int>(pending_.size()) >= options_.frontend_in_flight)
-    throw std::logic_error("System::submit: " + std::to_string(pending_.size()) + " pairs are pending already");
+  check_can_submit();
   const auto start = std::chrono::steady_clock::now();
   frontend_->submit_stereo(pair.left.view(), pair.right.view());
   pending_.push_back({pair.time_s, elapsed_ns(start)});
+}
+
+void System::submit(const StereoInput& pair) {
+  check_can_submit();
+  const auto start = std::chrono::steady_clock::now();
+  frontend_->submit_stereo(pair.left, pair.right);  // std::invalid_argument for a foreign image
+  pending_.push_back({pair.time_s, elapsed_ns(start)});
+}
+
+void System::check_can_submit() const {
+  if (finished_) throw std::logic_error("System::submit called after finish()");
+  if (static_cast<int>(pending_.size()) >= options_.frontend_in_flight)
+    throw std::logic_error("System::submit: " + std::to_string(pending_.size()) + " pairs are pending already");
 }
 
 TrackingResult System::track_next() {

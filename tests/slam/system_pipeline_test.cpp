@@ -1,6 +1,7 @@
 // The pipelined System (system.hpp: submit / track_next with frames in flight) against the
 // sequential one (process): on a rendered drive, in the deterministic mode, both give the same
-// trajectory and keyframes bit for bit; and the misuses of the pipeline are refused.
+// trajectory and keyframes bit for bit, also with the pairs in the System's input images; and the
+// misuses of the pipeline are refused.
 #if PORTA_RENDER_BUILT && PORTA_SLAM_BUILT
 
 #include <gtest/gtest.h>
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "porta/registry.hpp"
@@ -98,6 +100,44 @@ TEST(SystemPipeline, FramesInFlightGiveTheSequentialTrajectoryBitForBit) {
   }
 }
 
+// The pairs in the System's input images (read in place, no copy on submit), a ring of them
+// reused once their pair is tracked, as `portaslam run` does: the same bits as process().
+TEST(SystemPipeline, InputImagesGiveTheSequentialTrajectoryBitForBit) {
+  const Drive& d = drive();
+  std::unique_ptr<Backend> backend = BackendRegistry::instance().create("cpu", {});
+  System sequential(settings_for(d.camera), *backend, RunMode::deterministic);
+  for (const StereoPair& pair : d.pairs) sequential.process(pair);
+  sequential.finish();
+
+  SystemOptions options;
+  options.frontend_in_flight = 2;
+  System pipelined(settings_for(d.camera), *backend, RunMode::deterministic, options);
+  std::vector<StereoInput> ring(3);
+  for (StereoInput& input : ring) {
+    input.left = pipelined.make_input_image();
+    input.right = pipelined.make_input_image();
+    ASSERT_EQ(input.left.width(), d.camera.width);
+    ASSERT_EQ(input.left.height(), d.camera.height);
+  }
+  const auto submit = [&](std::size_t k) {
+    StereoInput& input = ring[k % ring.size()];
+    input.index = d.pairs[k].index;
+    input.time_s = d.pairs[k].time_s;
+    input.left.assign(d.pairs[k].left.view());
+    input.right.assign(d.pairs[k].right.view());
+    pipelined.submit(input);
+  };
+  submit(0);
+  for (std::size_t k = 0; k < d.pairs.size(); ++k) {
+    if (k + 1 < d.pairs.size()) submit(k + 1);  // into the image pair k - 2 had
+    const TrackingResult result = pipelined.track_next();
+    EXPECT_EQ(result.state, sequential.results()[k].state) << "frame " << k;
+  }
+  pipelined.finish();
+  EXPECT_TRUE(same(pipelined.trajectory(), sequential.trajectory()));
+  EXPECT_TRUE(same(pipelined.keyframe_trajectory(), sequential.keyframe_trajectory()));
+}
+
 TEST(SystemPipeline, MisusesAreRefused) {
   const Drive& d = drive();
   std::unique_ptr<Backend> backend = BackendRegistry::instance().create("cpu", {});
@@ -118,6 +158,22 @@ TEST(SystemPipeline, MisusesAreRefused) {
   StereoPair small{2, 0.2, Image(64, 32), Image(64, 32)};
   EXPECT_THROW(system.submit(small), std::invalid_argument);
   EXPECT_EQ(system.pending(), 2u);
+  system.track_next();
+  // Input images another System made, or one moved from, are refused naming the side.
+  System other(settings_for(d.camera), *backend, RunMode::deterministic, two);
+  StereoInput foreign{2, 0.2, other.make_input_image(), system.make_input_image()};
+  try {
+    system.submit(foreign);
+    ADD_FAILURE() << "an input image of another System was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("left input image was not made by this Frontend"), std::string::npos)
+        << e.what();
+  }
+  StereoInput mine{2, 0.2, system.make_input_image(), system.make_input_image()};
+  InputImage taken = std::move(mine.right);
+  EXPECT_THROW(system.submit(mine), std::invalid_argument);  // the right image was moved from
+  EXPECT_EQ(system.pending(), 1u);
+  system.submit(d.pairs[1]);
   system.track_next();
   system.track_next();
   EXPECT_EQ(system.pending(), 0u);

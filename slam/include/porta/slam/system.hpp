@@ -33,6 +33,14 @@ struct FrameTimes {
   std::int64_t total_ns = 0;     ///< frontend_ns + tracking (+ deterministic mapping): the frame's host time
 };
 
+/// A rectified stereo pair in input images of the System (System::make_input_image()): the
+/// backend reads them where they lie (pinned host memory on cuda), with no host copy on submit.
+struct StereoInput {
+  std::size_t index = 0;
+  double time_s = 0.0;
+  InputImage left, right;
+};
+
 struct SystemOptions {
   /// Frames whose frontend may be submitted before the oldest is tracked (FrontendOptions::
   /// in_flight). 1: process() only, each stage timed separately. 2 or more: submit() / track_next()
@@ -58,6 +66,14 @@ class System {
   /// while the host goes on. std::invalid_argument for a pair of the wrong size; std::logic_error
   /// when frontend_in_flight pairs are pending already.
   void submit(const StereoPair& pair);
+  /// As submit(const StereoPair&), without the copy: the images are read in place, so they must
+  /// not change until track_next() has tracked this pair. std::invalid_argument for an image this
+  /// System did not make (or one moved from).
+  void submit(const StereoInput& pair);
+  /// An image of the camera's size for submit(const StereoInput&), zero-filled: memory the backend
+  /// reads directly (pinned on cuda). Fill it through InputImage::row() or assign(), on any
+  /// thread; make them on the thread that calls submit().
+  InputImage make_input_image() { return frontend_->make_input_image(); }
   /// Waits for the features of the oldest submitted pair and tracks it (std::logic_error when none
   /// is pending). Submitting pair t+1 before tracking pair t overlaps the two; the results are
   /// those of process() on the same pairs in the same order, byte for byte.
@@ -102,6 +118,8 @@ class System {
     double time_s = 0.0;
     std::int64_t submit_ns = 0;
   };
+  void check_can_submit() const;  ///< std::logic_error after finish() or with in-flight pairs pending
+
   SlamSettings settings_;
   RunMode mode_;
   SystemOptions options_;
