@@ -1,14 +1,11 @@
 #include "slam_run.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <deque>
 #include <filesystem>
 #include <sstream>
-#include <future>
 #include <map>
 #include <memory>
 #include <optional>
@@ -20,6 +17,7 @@
 #include "loop_report.hpp"
 #include "map_report.hpp"
 #include "output_paths.hpp"
+#include "pair_reader.hpp"
 #include "process_memory.hpp"
 #include "thread_cpu.hpp"
 #include "cpu/thread_name.hpp"
@@ -144,8 +142,9 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   std::printf("dataset   %s\n", dataset->describe().c_str());
   std::printf("camera    %s\n", settings.camera.describe().c_str());
-  std::printf("backend   %s on %s%s\n", backend->name().c_str(), backend->device_name().c_str(),
-              settings.projection_on_backend ? "" : "; tracking's projection matching on the host");
+  std::printf("backend   %s on %s%s%s\n", backend->name().c_str(), backend->device_name().c_str(),
+              settings.projection_on_backend ? "" : "; tracking's projection matching on the host",
+              options.pinned_input ? "" : "; each pair copied on submit (--input copy)");
   std::printf("mode      %s, frames %zu..%zu, %d pyramid levels, scale %.2f, FAST threshold %d, %d-px cells\n",
               options.mode == slam::RunMode::realtime ? "realtime" : "deterministic", options.first, end - 1,
               settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold,
@@ -194,81 +193,16 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   const auto run_start = std::chrono::steady_clock::now();
   const double cpu_start_s = process_cpu_seconds();
   const ThreadCpuSnapshot threads_at_start = thread_cpu_snapshot();
-  std::atomic<double> reading_cpu_s{0.0};  // decoding the pairs, on whichever thread reads them
   // As fast as possible, up to read_ahead pairs are read (and for EuRoC rectified) on threads of
   // their own while frames are processed (decoding two PNG images takes longer than a GPU frame).
   // Paced like a camera, a pair is read when it is due: a camera delivers decoded images, so
   // reading files must not compete with SLAM for the cores while a frame is processed.
   const std::size_t read_ahead =
       paced ? 0 : std::clamp<std::size_t>(std::thread::hardware_concurrency() / 2, 1, 4);
-  // The pairs travel in the System's input images (pinned host memory on cuda): the reader fills
-  // one and the frontend reads it in place, so the frames' thread copies no image. Pair j lies in
-  // inputs[j % inputs.size()], which is free again once pair j - inputs.size() has been tracked:
-  // at most read_ahead + 1 pairs are being read while the frames in flight wait to be tracked.
-  std::vector<slam::StereoInput> inputs(read_ahead + 2 + static_cast<std::size_t>(system.frontend_in_flight()));
-  for (slam::StereoInput& input : inputs) {
-    input.left = system.make_input_image();
-    input.right = system.make_input_image();
-  }
-  // Leaving early (an exception) with frames in flight: the device is done reading the images
-  // before they are freed.
-  struct DeviceDoneWithInputs {
-    Backend& backend;
-    ~DeviceDoneWithInputs() {
-      try {
-        backend.synchronize();
-      } catch (...) {  // a device error here was reported by the call that met it first
-      }
-    }
-  } device_done_with_inputs{*backend};
-  std::size_t tracked_end = options.first;  // every pair before this one has been tracked
-  const auto load_pair = [&dataset, &reading_cpu_s, &inputs](std::size_t i) -> slam::StereoInput* {
-    const double cpu_start = this_thread_cpu_seconds();
-    const slam::StereoPair pair = dataset->load(i);
-    slam::StereoInput& input = inputs[i % inputs.size()];
-    input.index = pair.index;
-    input.time_s = pair.time_s;
-    input.left.assign(pair.left.view());
-    input.right.assign(pair.right.view());
-    reading_cpu_s.fetch_add(this_thread_cpu_seconds() - cpu_start);
-    return &input;
-  };
-  std::deque<std::future<slam::StereoInput*>> reads;
-  std::size_t next_request = options.first;  // the next pair to start reading
-  const auto request = [&]() {
-    const std::size_t i = next_request++;
-    if (i >= tracked_end + inputs.size())  // its input images would still be in use
-      throw std::logic_error("run: pair " + std::to_string(i) + " read before pair " +
-                             std::to_string(i - inputs.size()) + " was tracked");
-    return i;
-  };
-  // How long the frames' loop waited for each pair (read on this thread when paced, else the wait
-  // for a read-ahead thread): what reading costs the frame rate, outside "frame".
-  std::vector<std::int64_t> input_wait_ns;
-  input_wait_ns.reserve(total);
-  const auto read_next = [&]() -> const slam::StereoInput& {
-    const auto wait_start = std::chrono::steady_clock::now();
-    if (read_ahead == 0) {
-      const slam::StereoInput* pair = load_pair(request());
-      input_wait_ns.push_back(slam::elapsed_ns(wait_start));
-      return *pair;
-    }
-    while (reads.size() < read_ahead + 1 && next_request < end) {
-      const std::size_t i = request();
-      reads.push_back(std::async(std::launch::async, [&load_pair, i] {
-        cpu::name_this_thread("porta-reader");
-        return load_pair(i);
-      }));
-    }
-    std::future<slam::StereoInput*> read = std::move(reads.front());
-    reads.pop_front();
-    const slam::StereoInput* pair = read.get();
-    input_wait_ns.push_back(slam::elapsed_ns(wait_start));
-    return *pair;
-  };
+  PairReader reader(*dataset, system, *backend, options.first, end, read_ahead, options.pinned_input);
   double first_time_s = 0.0, last_time_s = 0.0;
   const auto submit_next = [&](std::size_t i) {
-    const slam::StereoInput& pair = read_next();
+    const PairReader::Slot& pair = reader.next();
     if (i == options.first) first_time_s = pair.time_s;
     last_time_s = pair.time_s;
     if (paced) {
@@ -277,14 +211,14 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                                        std::chrono::duration<double>((pair.time_s - first_time_s) / options.rate));
       std::this_thread::sleep_until(due);
     }
-    system.submit(pair);
+    reader.submit(system, pair);
   };
   const bool ahead = system.frontend_in_flight() > 1;
   submit_next(options.first);
   for (std::size_t i = options.first; i < end; ++i) {
     if (ahead && i + 1 < end) submit_next(i + 1);  // pair i+1's frontend runs while pair i is tracked
     const slam::TrackingResult result = system.track_next();
-    tracked_end = i + 1;
+    reader.tracked(i + 1);
     if (!ahead && i + 1 < end) submit_next(i + 1);
     ++summary.frames;
     if (result.state == slam::TrackingState::ok) ++summary.tracked;
@@ -342,7 +276,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   slam::write_kitti_times((fs::path(options.out) / "trajectory_times.txt").string(), trajectory);
   slam::write_trajectory(keyframes_path, system.keyframe_trajectory(), slam::TrajectoryFormat::tum);
   slam::write_file_atomically((fs::path(options.out) / "frames.csv").string(),
-                              frame_log_csv(options.first, system.frame_times(), system.results(), input_wait_ns));
+                              frame_log_csv(options.first, system.frame_times(), system.results(), reader.input_wait_ns()));
   slam::MapCloud cloud;  // for the export and the top view: the map the counts describe
   {
     std::lock_guard<std::mutex> lock(system.map().mutex);
@@ -381,7 +315,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"track motion", quantiles(motion_ns)},       {"track local map", quantiles(track_local_ns)},
       {"keyframe", quantiles(keyframe_ns)},         {"local map", quantiles(local_map_ns)},
       {"triangulation", quantiles(triangulate_ns)}, {"fusion", quantiles(fuse_ns)},
-      {"BA", quantiles(ba_ns)},                     {"input wait", quantiles(input_wait_ns)},
+      {"BA", quantiles(ba_ns)},                     {"input wait", quantiles(reader.input_wait_ns())},
       {"mapping wait", quantiles(mapping_wait_ns)},
       {"frame", quantiles(frame_ns)}};
   summary.median_frame_ms = stages.back().second.median_ms;
@@ -429,7 +363,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                 recorded_fps);
   }
   std::printf("); peak memory %.0f MiB\n", summary.peak_resident_mib);
-  if (const std::string line = thread_cpu_text(cpu_by_thread, reading_cpu_s.load(), frames); !line.empty()) {
+  if (const std::string line = thread_cpu_text(cpu_by_thread, reader.cpu_s(), frames); !line.empty()) {
     std::printf("%s\n", line.c_str());
   }
 
@@ -513,7 +447,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
        << ",\n  \"throughput\": {\"wall_s\": " << summary.wall_s << ", \"frames_per_s\": "
        << summary.frames / std::max(summary.wall_s, 1e-9) << ", \"cpu_s\": " << summary.cpu_s
        << ", \"cpu_s_per_frame\": " << summary.cpu_s / frames << ", \"peak_resident_mib\": "
-       << summary.peak_resident_mib << ", \"cpu\": " << thread_cpu_json(cpu_by_thread, reading_cpu_s.load()) << "}"
+       << summary.peak_resident_mib << ", \"cpu\": " << thread_cpu_json(cpu_by_thread, reader.cpu_s()) << "}"
        << ",\n  " << loops.json << ",\n  " << map_report.json << ",\n  \"memory\": [";
   for (std::size_t k = 0; k < summary.memory.size(); ++k) {
     const SlamRunSummary::MemorySample& m = summary.memory[k];
@@ -552,6 +486,9 @@ std::string slam_run_options_usage() {
          "  --projection-match WHERE\n"
          "                      backend (default: the backend's projection-match kernel) or host:\n"
          "                      where tracking matches map points to the frame; same matches\n"
+         "  --input HOW         pinned (default: each pair is read into images the backend reads\n"
+         "                      where they lie, pinned host memory on cuda) or copy (the frontend\n"
+         "                      copies each pair on submit); same results\n"
          "  --mode M            realtime (default: tracking and mapping threads) or deterministic\n"
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
@@ -609,6 +546,10 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
       throw CliError("--projection-match takes backend or host, got '" + where + "'");
     }
     options.projection_on_backend = where == "backend";
+  } else if (option == "--input") {
+    const std::string how = cursor.value(option);
+    if (how != "pinned" && how != "copy") throw CliError("--input takes pinned or copy, got '" + how + "'");
+    options.pinned_input = how == "pinned";
   } else if (option == "--mode") {
     const std::string mode = cursor.value(option);
     if (mode == "realtime") {

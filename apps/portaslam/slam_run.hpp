@@ -24,6 +24,7 @@ struct SlamRunOptions {
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
   int keyframe_queue = 2;         ///< SlamSettings::keyframe_queue_limit
   bool projection_on_backend = true;  ///< SlamSettings::projection_on_backend
+  bool pinned_input = true;       ///< pairs read into the System's input images (else copied on submit)
   slam::RunMode mode = slam::RunMode::realtime;
   std::string out = "portaslam-run";
   std::size_t first = 0;

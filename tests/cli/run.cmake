@@ -99,6 +99,8 @@ if(TARGET porta_place_bench)
 endif()
 porta_cli_test(run_bad_projection_match EXIT 1 STDERR "--projection-match takes backend or host, got 'gpu'"
                ARGS run --dataset kitti x --projection-match gpu)
+porta_cli_test(run_bad_input EXIT 1 STDERR "--input takes pinned or copy, got 'gpu'"
+               ARGS run --dataset kitti x --input gpu)
 porta_cli_test(run_bad_keyframes_while_mapping EXIT 1
                STDERR "--keyframes-while-mapping takes on or off, got 'maybe'"
                ARGS run --dataset kitti x --keyframes-while-mapping maybe)

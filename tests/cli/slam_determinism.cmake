@@ -1,6 +1,7 @@
 # Renders a short street sequence, runs `portaslam run --mode deterministic` on it twice, the
-# second time with 3 local-mapping threads and tracking's projection matching on the host instead
-# of the backend's kernel, and requires identical trajectory files (DESIGN.md §6:
+# second time with 3 local-mapping threads, tracking's projection matching on the host instead
+# of the backend's kernel and the pairs copied on submit instead of read in place (--input), and
+# requires identical trajectory files (DESIGN.md §6:
 # same input, same trajectory, byte for byte), then on every other backend available and requires
 # cpu's bytes there too.
 # Run as a script by run.cmake: cmake -DPORTASLAM=... -DWORK=... -P slam_determinism.cmake
@@ -17,12 +18,14 @@ endif()
 foreach(run a b)
   set(threads 1)
   set(matching backend)
+  set(input pinned)
   if(run STREQUAL "b")
+    set(input copy)  # the frontend copies each pair instead of reading the System's input images
     set(threads 3)  # the parallel epipolar searches of triangulation give the same map
     set(matching host)  # the host's projection search finds the kernel's matches (DESIGN.md §3.10)
   endif()
   execute_process(COMMAND ${PORTASLAM} run --dataset kitti ${WORK}/seq --mode deterministic --out ${WORK}/${run}
-                          --mapping-threads ${threads} --projection-match ${matching} --quiet
+                          --mapping-threads ${threads} --projection-match ${matching} --input ${input} --quiet
                   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
     message(FATAL_ERROR "run ${run} failed (${rc}): ${out}${err}")
@@ -35,7 +38,7 @@ foreach(f trajectory_tum.txt trajectory_kitti.txt keyframes_tum.txt)
   execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${WORK}/a/${f} ${WORK}/b/${f} RESULT_VARIABLE differ)
   if(differ)
     message(FATAL_ERROR "deterministic mode gave different ${f} on two runs of the same input (1 and 3 mapping "
-                        "threads; projection matching on the backend and on the host)")
+                        "threads; projection matching on the backend and on the host; pairs read in place and copied)")
   endif()
 endforeach()
 # Every other backend this machine can run gives the same bytes as cpu (the frontend is bit-exact,
