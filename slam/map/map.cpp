@@ -17,16 +17,16 @@ namespace porta::slam {
 
 MapPoint::MapPoint(std::uint64_t id_in, const Eigen::Vector3d& position_in, KeyFrame* reference_in,
                    std::uint64_t first_frame_id_in)
-    : id(id_in),
-      position(position_in),
+    : position(position_in),
+      id(id_in),
       reference(reference_in),
       first_keyframe_id(reference_in ? reference_in->id : 0),
       first_frame_id(first_frame_id_in) {}
 
 MapPoint::MapPoint(std::uint64_t id_in, const Eigen::Vector3d& position_in, KeyFrame* reference_in,
                    std::uint64_t first_keyframe_id_in, std::uint64_t first_frame_id_in)
-    : id(id_in),
-      position(position_in),
+    : position(position_in),
+      id(id_in),
       reference(reference_in),
       first_keyframe_id(first_keyframe_id_in),
       first_frame_id(first_frame_id_in) {}

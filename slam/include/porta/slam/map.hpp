@@ -48,29 +48,32 @@ inline int hamming_distance(const Descriptor& a, const Descriptor& b) {
          std::popcount(wa[3] ^ wb[3]);
 }
 
-class MapPoint {
+/// Aligned to a cache line, with what tracking's local-map scan reads of every point first: the
+/// position, its marks and `bad` in the first line, the normal, the distance range and the
+/// descriptor (of the points in view) in the second.
+class alignas(64) MapPoint {
  public:
   MapPoint(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t first_frame_id);
   /// For a point read back from a map file: `first_keyframe_id` as saved (its keyframe may be gone).
   MapPoint(std::uint64_t id, const Eigen::Vector3d& position, KeyFrame* reference,
            std::uint64_t first_keyframe_id, std::uint64_t first_frame_id);
 
-  const std::uint64_t id;
   Eigen::Vector3d position;
-  Descriptor descriptor;                        ///< the observation with the least median distance to the others
+  /// Tracking's marks, under Map::mutex and not saved: the last local-map build that listed the
+  /// point and the last frame that matched it (membership tests without a hash set per frame).
+  std::uint64_t tracking_local_mark = 0, tracking_frame_mark = 0;
+  int visible = 1;   ///< frames whose view frustum contained it
+  int found = 1;     ///< frames that matched it
+  bool bad = false;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< mean viewing direction (unit)
   double min_distance = 0.0, max_distance = 0.0;     ///< scale-invariance distance range
+  Descriptor descriptor;                        ///< the observation with the least median distance to the others
+  const std::uint64_t id;
   IdMap<KeyFrame, int> observations;            ///< keyframe -> feature index
   KeyFrame* reference = nullptr;
   const std::uint64_t first_keyframe_id;
   const std::uint64_t first_frame_id;
-  int visible = 1;   ///< frames whose view frustum contained it
-  int found = 1;     ///< frames that matched it
-  bool bad = false;
   MapPoint* replaced_by = nullptr;
-  /// Tracking's marks, under Map::mutex and not saved: the last local-map build that listed the
-  /// point and the last frame that matched it (membership tests without a hash set per frame).
-  std::uint64_t tracking_local_mark = 0, tracking_frame_mark = 0;
   /// Local mapping's pass mark (mapping::new_pass_mark: bundle adjustment's collection, fusion's
   /// candidate list), under Map::mutex.
   std::uint64_t collect_mark = 0;
