@@ -41,12 +41,7 @@ constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose an
 constexpr double kKeyframeWindowPx = 15.0;  // fallback: wide window, no bag-of-words vocabulary here
 constexpr int kKeyframeMinMatches = 15;
 constexpr int kMinPoseInliers = 10;
-constexpr double kLocalMapWindow = 1.0;
-constexpr std::size_t kSeenSlots = std::size_t{1} << 14;  // a few times a local map's points
-/// The point's slot in search_local_points' filter: a multiplicative hash of its address.
-std::size_t seen_slot(const MapPoint* point) {
-  return static_cast<std::size_t>((reinterpret_cast<std::uintptr_t>(point) * 0x9E3779B97F4A7C15ull) >> 50);
-}  // th of the local-map search (3 after relocalisation)
+constexpr double kLocalMapWindow = 1.0;  // th of the local-map search (3 after relocalisation)
 constexpr std::size_t kMaxLocalKeyframes = 80;
 constexpr std::size_t kCovisiblesPerKeyframe = 10;
 constexpr std::size_t kRelocalisationNeighbours = 5;
@@ -133,7 +128,6 @@ struct Tracker::Impl {
   std::vector<tracking::ProjectedPoint> projected;
   std::vector<ProjectionQuery> queries;
   std::vector<Descriptor> query_descriptors;
-  std::vector<const MapPoint*> seen;  // search_local_points' filter of points met (kSeenSlots)
   std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
   std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
   std::string lost_reason;
@@ -361,17 +355,9 @@ int Tracker::Impl::search_local_points(Frame& frame) {
   const std::uint64_t local_mark = ++local_points_mark;
   const Eigen::Vector3d center = frame.center();
   projected.clear();
-  // Most points are in several local keyframes. The filter, a table of the addresses last met by
-  // their hash, tells most repeats without reading the point (a cache miss each); the mark
-  // decides for the rest.
-  seen.assign(kSeenSlots, nullptr);
   for (const KeyFrame* keyframe : local_keyframes) {
     for (MapPoint* point : keyframe->points) {
-      if (point == nullptr) continue;
-      const MapPoint*& slot = seen[seen_slot(point)];
-      if (slot == point) continue;
-      slot = point;
-      if (point->bad || point->tracking_local_mark == local_mark) continue;
+      if (point == nullptr || point->bad || point->tracking_local_mark == local_mark) continue;
       point->tracking_local_mark = local_mark;
       if (point->tracking_frame_mark == mark) continue;  // matched already
       tracking::ProjectedPoint p;
