@@ -1,12 +1,16 @@
 // Shared by the workgroup-per-cell culling shaders (cull_cells.comp, fast_cull.comp): finding a
-// cell and the end of its reduction. The including shader declares `cells_out` (uvec2, writable)
-// and the 64-wide workgroup. Needs GL_EXT_shader_explicit_arithmetic_types_int64.
+// cell and the end of its reduction. The including shader declares its parameter block `p` with
+// the grid as `Cells cells`, `cells_out` (uvec2, writable) and the 64-wide workgroup. Needs
+// GL_EXT_shader_explicit_arithmetic_types_int64.
 
-// The level whose grid holds frame-wide cell index `cell`, -1 when none does.
-int cull_level_of(Cells cells, int cell) {
-  for (int i = 0; i < cells.count; ++i) {
-    const LevelCells c = cells.level[i];
-    if (cell >= c.first_cell && cell - c.first_cell < c.cols * c.rows) return i;
+// The level whose grid holds frame-wide cell index `cell`, -1 when none does. It reads p.cells in
+// place: a Cells passed by value is a copy of every level's grid per invocation, which a dynamic
+// index may keep in local memory (suspected where culling ran 3-4x slower on NVIDIA's Vulkan than
+// OpenCL's same kernel).
+int cull_level_of(int cell) {
+  for (int i = 0; i < p.cells.count; ++i) {
+    const int first = p.cells.level[i].first_cell;
+    if (cell >= first && cell - first < p.cells.level[i].cols * p.cells.level[i].rows) return i;
   }
   return -1;
 }

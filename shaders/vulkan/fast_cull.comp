@@ -29,7 +29,7 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
 
 void main() {
   const int cell = int(porta_linear_group());
-  const int n = cull_level_of(p.cells, cell);
+  const int n = cull_level_of(cell);
   if (n < 0) return;  // the whole workgroup: `cell` is uniform
   const LevelCells grid = p.cells.level[n];
   const Plane s = p.layout_.level[n];
