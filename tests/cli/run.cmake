@@ -104,3 +104,9 @@ porta_cli_test(run_bad_input EXIT 1 STDERR "--input takes pinned or copy, got 'g
 porta_cli_test(run_bad_keyframes_while_mapping EXIT 1
                STDERR "--keyframes-while-mapping takes on or off, got 'maybe'"
                ARGS run --dataset kitti x --keyframes-while-mapping maybe)
+
+# A truncated image partway through: exit 1 naming it, no trajectory (the reader's three paths).
+add_test(NAME cli.run_truncated_image_midway
+         COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/truncated-midway
+                 -P ${CMAKE_CURRENT_LIST_DIR}/run_truncated_image.cmake)
+set_tests_properties(cli.run_truncated_image_midway PROPERTIES LABELS cli TIMEOUT 300)
