@@ -24,8 +24,9 @@
 # PORTA_GPU_CMAKE_ARGS, PORTA_JOBS, PORTA_DATA_DIR as ci/gpu-common.sh reads them,
 # PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh), PORTA_PROFILE_CELLS
 # (names of the cells to run, e.g. "320x240-1 752x480-8"; default all), PORTA_PROFILE_BACKENDS
-# (default: every backend available). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
-# pass through.
+# (default: every backend available), PORTA_PROFILE_VARIANTS (which of the runs beside the default
+# to make: "one-queue fused-pyramid unfused-detect", the default, or a subset; "none" for none).
+# The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...) pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 
@@ -50,6 +51,14 @@ for b in ${PORTA_PROFILE_BACKENDS:-cpu cuda vulkan opencl}; do
 done
 [ -n "$all" ] || { say "no backend available"; exit 1; }
 
+variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
+variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
+for v in $variants; do
+  case "$v" in one-queue | fused-pyramid | unfused-detect | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect none"; exit 1 ;;
+  esac
+done
+
 status=0
 # name: resolution levels modes
 cells=("1242x375-8:1242x375 8 stereo,extract" "752x480-8:752x480 8 detect" "320x240-1:320x240 1 detect")
@@ -68,14 +77,18 @@ for cell in "${cells[@]}"; do
   say "cell $name: frame times on $all"
   "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name.json" \
     >"$out_dir/frames-$name.txt" 2>>"$out_dir/bench.log" || status=1
-  if [ -n "$timed" ]; then
+  if [ -n "$timed" ] && variant one-queue; then
     say "cell $name: $timed with one queue"
     PORTA_VULKAN_QUEUES=1 PORTA_OPENCL_QUEUES=1 "$binary" bench --backend "$timed" "${common[@]}" \
       --json "$out_dir/frames-$name-one-queue.json" >"$out_dir/frames-$name-one-queue.txt" \
       2>>"$out_dir/bench.log" || status=1
+  fi
+  if [ -n "$timed" ]; then
     say "cell $name: per-kernel device time on $timed"
     "$binary" bench --backend "$timed" "${common[@]}" --profile-kernels --json "$out_dir/kernels-$name.json" \
       >"$out_dir/kernels-$name.txt" 2>>"$out_dir/bench.log" || status=1
+  fi
+  if [ -n "$timed" ] && variant fused-pyramid; then
     say "cell $name: $timed with the pyramid in one dispatch (PORTA_*_FUSED_PYRAMID=on)"
     PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on "$binary" bench --backend "$timed" "${common[@]}" \
       "${bench_args[@]}" --json "$out_dir/frames-$name-fused.json" >"$out_dir/frames-$name-fused.txt" \
@@ -84,7 +97,7 @@ for cell in "${cells[@]}"; do
       --profile-kernels --json "$out_dir/kernels-$name-fused.json" >"$out_dir/kernels-$name-fused.txt" \
       2>>"$out_dir/bench.log" || status=1
   fi
-  if [ -n "$timed" ]; then
+  if [ -n "$timed" ] && variant unfused-detect; then
     say "cell $name: $timed with detection in four kernels (PORTA_*_FUSED_DETECT=off)"
     PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend "$timed" "${common[@]}" \
       "${bench_args[@]}" --json "$out_dir/frames-$name-unfused-detect.json" \

@@ -131,6 +131,7 @@ void OpenClBackend::queue_wait(int other) {
   if (other == current_) return;  // in order already
   const Clock::time_point start = profile_kernels_ ? Clock::now() : Clock::time_point{};
   cl_event marker = nullptr;
+  mark_used(other);
   check(clEnqueueMarkerWithWaitList(queues_[static_cast<std::size_t>(other)], 0, nullptr, &marker),
         "clEnqueueMarkerWithWaitList", "queue_wait(" + std::to_string(other) + ")");
   const cl_int err = clEnqueueBarrierWithWaitList(queue(), 1, &marker, nullptr);
@@ -142,12 +143,18 @@ void OpenClBackend::queue_wait(int other) {
 void OpenClBackend::finish_queue(int queue) {
   check_queue_index(queue, "finish_queue");
   check(clFinish(queues_[static_cast<std::size_t>(queue)]), "clFinish", "queue " + std::to_string(queue));
+  unflushed_[static_cast<std::size_t>(queue)] = false;
+  unfinished_[static_cast<std::size_t>(queue)] = false;
   read_timed_events(queue);
 }
 
 void OpenClBackend::finish_all() {
-  for (int q = 0; q < queue_count_; ++q)
+  for (int q = 0; q < queue_count_; ++q) {
+    if (!unfinished_[static_cast<std::size_t>(q)]) continue;
     check(clFinish(queues_[static_cast<std::size_t>(q)]), "clFinish", "queue " + std::to_string(q));
+    unflushed_[static_cast<std::size_t>(q)] = false;
+    unfinished_[static_cast<std::size_t>(q)] = false;
+  }
 }
 
 void OpenClBackend::synchronize() {
@@ -156,9 +163,12 @@ void OpenClBackend::synchronize() {
 }
 
 void OpenClBackend::flush() {
-  for (int q = 0; q < queue_count_; ++q)
+  for (int q = 0; q < queue_count_; ++q) {
+    if (!unflushed_[static_cast<std::size_t>(q)]) continue;
+    unflushed_[static_cast<std::size_t>(q)] = false;
     if (const cl_int err = clFlush(queues_[static_cast<std::size_t>(q)]); err != CL_SUCCESS)
       check(err, "clFlush", "queue " + std::to_string(q));
+  }
 }
 
 // ---- Memory and transfers ------------------------------------------------------------------------

@@ -23,7 +23,8 @@ struct ClLevels {
   cl_int count, pad[3];
 };
 struct ClLevelCells {
-  cl_int cell_w, cell_h, cols, rows, first_cell, pad[3];
+  cl_int cell_w, cell_h, cols, rows, first_cell;
+  cl_int first_group, group_shift, pad;  // fast_cull_group's work split (checks::CellGroups), else 0
 };
 struct ClCells {
   ClLevelCells level[kMaxLevels];
@@ -63,7 +64,7 @@ inline ClCells to_cl(const CellLayout& cells) {
   c.total_cells = cells.total_cells;
   for (std::size_t n = 0; n < cells.levels.size(); ++n) {
     const auto& l = cells.levels[n];
-    c.level[n] = {l.cell_w, l.cell_h, l.cols, l.rows, l.first_cell, {0, 0, 0}};
+    c.level[n] = {l.cell_w, l.cell_h, l.cols, l.rows, l.first_cell, 0, 0, 0};
   }
   return c;
 }

@@ -71,6 +71,8 @@ ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaPar
 /// more than the host saved on launches: 234 against 207 us per stereo pair with the separate PFA
 /// and compaction, 4 frames in flight and pinned input, where the device bounds opencl.
 constexpr int kPfaCompactGroupCells = 512;
+/// fast_cull_group's work-group size (its reqd_work_group_size).
+constexpr int kFastCullGroup = 256;
 
 }  // namespace
 
@@ -179,16 +181,23 @@ void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
                                      const PfaParams* pfa, DeviceList out) {
   bool regular = true;
   for (const LevelCells& c : cell_layout.levels) regular = regular && c.cell_w > 0 && c.cell_h > 0;
-  if (!fused_detect() || !regular) {
+  if (!fused_detect() || !regular || max_work_group() < kFastCullGroup) {
     Backend::detect_keypoints(pyramid, layout, lut, responses, response_layout, fast, cell_layout, cells, pfa, out);
     return;
   }
   check_fast(pyramid, layout, lut, responses, response_layout, fast);
   const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
-  if (end_cell > 0)
-    launch("detect", "fast_cull_group", Range::linear(static_cast<std::size_t>(end_cell) * 64, 64), pyramid,
-           to_cl(layout), lut, to_cl(cell_layout), static_cast<cl_int>(fast.threshold),
-           static_cast<cl_int>(fast.edge), cells);
+  if (end_cell > 0) {
+    ClCells grid = to_cl(cell_layout);
+    const checks::CellGroups groups = checks::plan_cell_groups(kBackend, "fast_cull_group", cell_layout, kFastCullGroup);
+    for (std::size_t n = 0; n < groups.shift.size(); ++n) {
+      grid.level[n].first_group = groups.first_group[n];
+      grid.level[n].group_shift = groups.shift[n];
+    }
+    launch("detect", "fast_cull_group",
+           Range::linear(static_cast<std::size_t>(groups.groups) * kFastCullGroup, kFastCullGroup), pyramid,
+           to_cl(layout), lut, grid, static_cast<cl_int>(fast.threshold), static_cast<cl_int>(fast.edge), cells);
+  }
   const int total = cell_layout.total_cells;
   if (total < 1 || total > kPfaCompactGroupCells || max_work_group() < 1024) {
     if (pfa != nullptr) pfa_filter(cells, cell_layout, *pfa);

@@ -109,8 +109,11 @@ class OpenClBackend final : public Backend {
   /// Scratch device memory that lives as long as the backend, grown on demand (never shrunk); one
   /// per queue: queues never share scratch memory.
   Buffer& scratch(const std::string& name, std::size_t bytes);
-  /// The current queue.
-  cl_command_queue queue() const { return queues_[static_cast<std::size_t>(current_)]; }
+  /// The current queue, to enqueue on: the next flush() flushes it.
+  cl_command_queue queue() {
+    mark_used(current_);
+    return queues_[static_cast<std::size_t>(current_)];
+  }
   /// Kernels with a work-group per item (cull_cells_group, stereo_match_candidates_group) instead
   /// of a work-item, per 32 x 8 tile of all levels with local memory (fast_tiled, blur_tiled: one
   /// launch where the blur had two), PFA and compaction in one work-group (pfa_group,
@@ -159,6 +162,15 @@ class OpenClBackend final : public Backend {
   std::array<cl_command_queue, kQueues> queues_{};
   int queue_count_ = 1;
   int current_ = 0;
+  /// Queues given commands since their last flush (unflushed_) or finish (unfinished_): flush() and
+  /// finish_all() call the driver for those only (a clFlush or clFinish costs NVIDIA's driver a
+  /// few microseconds even on an idle queue, and a frame uses one or two of kQueues).
+  std::array<bool, kQueues> unflushed_{};
+  std::array<bool, kQueues> unfinished_{};
+  void mark_used(int queue) {
+    unflushed_[static_cast<std::size_t>(queue)] = true;
+    unfinished_[static_cast<std::size_t>(queue)] = true;
+  }
   std::map<std::string, cl_program> programs_;
   std::map<std::string, cl_kernel> kernels_;  // owns them; key: "program/kernel"
   std::map<std::pair<const char*, const char*>, cl_kernel> kernels_by_address_;  // the same, by the names' addresses

@@ -89,6 +89,8 @@ struct PfaCompactParams {  // pfa_compact_group.comp (push constants): PFA's, th
   std::uint32_t use_pfa, capacity, count_offset;
 };
 static_assert(sizeof(PfaCompactParams) <= kMaxPushBytes);
+/// fast_cull.comp's workgroup size (its GROUP).
+constexpr int kFastCullGroup = 256;
 /// pfa_compact_group.comp's most cells (its invocations loop over them; as kPfaGroupCells).
 constexpr int kPfaCompactGroupCells = 512;
 
@@ -214,9 +216,14 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   check_fast(pyramid, layout, lut, responses, response_layout, fast);
   const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
   if (end_cell > 0) {
-    const FastCullParams f{to_glsl(layout, "fast_crf"), to_glsl(cell_layout, "cull_cells"), fast.threshold,
-                           fast.edge, {0, 0}};
-    rt().dispatch("fast_cull", {&pyramid, &lut, &cells}, f, Work::groups(static_cast<std::uint64_t>(end_cell)));
+    FastCullParams f{to_glsl(layout, "fast_crf"), to_glsl(cell_layout, "cull_cells"), fast.threshold,
+                     fast.edge, {0, 0}};
+    const checks::CellGroups groups = checks::plan_cell_groups(kBackend, "fast_cull", cell_layout, kFastCullGroup);
+    for (std::size_t n = 0; n < groups.shift.size(); ++n) {
+      f.cells.level[n].first_group = groups.first_group[n];
+      f.cells.level[n].group_shift = groups.shift[n];
+    }
+    rt().dispatch("fast_cull", {&pyramid, &lut, &cells}, f, Work::groups(static_cast<std::uint64_t>(groups.groups)));
   }
   const int total = cell_layout.total_cells;
   if (total < 1 || total > kPfaCompactGroupCells) {

@@ -28,7 +28,8 @@ struct GlslLevels {
   std::int32_t count, pad[3];
 };
 struct GlslLevelCells {
-  std::int32_t cell_w, cell_h, cols, rows, first_cell, pad[3];
+  std::int32_t cell_w, cell_h, cols, rows, first_cell;
+  std::int32_t first_group, group_shift, pad;  // fast_cull.comp's work split (checks::CellGroups), else 0
 };
 struct GlslCells {
   GlslLevelCells level[kMaxLevels];
@@ -70,7 +71,7 @@ inline GlslCells to_glsl(const CellLayout& cells, const char* kernel) {
   c.total_cells = cells.total_cells;
   for (std::size_t n = 0; n < cells.levels.size(); ++n) {
     const auto& l = cells.levels[n];
-    c.level[n] = {l.cell_w, l.cell_h, l.cols, l.rows, l.first_cell, {0, 0, 0}};
+    c.level[n] = {l.cell_w, l.cell_h, l.cols, l.rows, l.first_cell, 0, 0, 0};
   }
   return c;
 }

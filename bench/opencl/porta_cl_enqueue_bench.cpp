@@ -5,6 +5,8 @@
 //   - Enqueue: one clEnqueueNDRangeKernel of a kernel that does nothing (256 work-items), from 1,
 //     2, 4 or 8 host threads, each with its own in-order queue and kernel object: whether the
 //     driver's enqueue cost spreads over threads or is serialised inside it;
+//   - IdleQueue: one clFlush or clFinish of a queue with nothing to run;
+//   - RoundTrip: one empty kernel enqueued and waited for with clFinish;
 //   - WritePinned: a non-blocking clEnqueueWriteBuffer of an image-sized block from pinned memory.
 // The queue is flushed every 16 and finished every 256 calls, so the device keeps up; the finish
 // is in the time (amortised). Device: $PORTA_OPENCL_DEVICE as an index or a substring of
@@ -169,6 +171,35 @@ void BM_Enqueue(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()));
 }
 BENCHMARK(BM_Enqueue)->Threads(1)->Threads(2)->Threads(4)->Threads(8)->UseRealTime();
+
+/// What a flush and a finish cost the host on a queue with nothing to run (the backend's flush()
+/// once called clFlush on all of its queues per frame).
+void BM_IdleQueue(benchmark::State& state) {
+  Lane lane;
+  const bool finish = state.range(0) == 1;
+  ok(clFinish(lane.queue), "clFinish");
+  for (auto _ : state) {
+    if (finish) {
+      ok(clFinish(lane.queue), "clFinish");
+    } else {
+      ok(clFlush(lane.queue), "clFlush");
+    }
+  }
+  state.SetLabel(finish ? "clFinish" : "clFlush");
+}
+BENCHMARK(BM_IdleQueue)->Arg(0)->Arg(1);
+
+/// One empty kernel enqueued, flushed and waited for: the round trip of a frame's smallest batch.
+void BM_RoundTrip(benchmark::State& state) {
+  Lane lane;
+  const std::size_t global = 256, local = 64;
+  for (auto _ : state) {
+    ok(clEnqueueNDRangeKernel(lane.queue, lane.kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr),
+       "clEnqueueNDRangeKernel");
+    ok(clFinish(lane.queue), "clFinish");
+  }
+}
+BENCHMARK(BM_RoundTrip)->UseRealTime();
 
 void BM_WritePinned(benchmark::State& state) {
   Lane lane;

@@ -339,4 +339,24 @@ LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const 
   return t;
 }
 
+CellGroups plan_cell_groups(std::string_view backend, std::string_view kernel, const CellLayout& cells,
+                            int group_size) {
+  CellGroups g;
+  int group_shift = 0;
+  while ((1 << (group_shift + 1)) <= group_size) ++group_shift;
+  for (const LevelCells& c : cells.levels) {
+    const std::int64_t pixels = static_cast<std::int64_t>(c.cell_w) * c.cell_h;
+    int shift = 0;
+    while (shift < group_shift && (std::int64_t{1} << shift) * 4 < pixels) ++shift;
+    g.first_group.push_back(static_cast<std::int32_t>(g.groups));
+    g.shift.push_back(shift);
+    const std::int64_t per_group = std::int64_t{1} << (group_shift - shift);
+    g.groups += (static_cast<std::int64_t>(c.count()) + per_group - 1) / per_group;
+    if (g.groups > std::numeric_limits<std::int32_t>::max())
+      fail(backend, kernel, std::to_string(g.groups) + " workgroups of " + std::to_string(group_size) +
+                                " for the cells; at most 2^31 - 1");
+  }
+  return g;
+}
+
 }  // namespace porta::checks

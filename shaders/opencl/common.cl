@@ -26,7 +26,9 @@ typedef struct {
   int cols;
   int rows;
   int first_cell;
-  int pad[3];
+  int first_group;  // fast_cull_group's work split (checks::CellGroups); 0 elsewhere
+  int group_shift;
+  int pad;
 } porta_level_cells;
 
 typedef struct {

@@ -434,36 +434,59 @@ void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
   out[(long)y * dst.pitch + x] = response;
 }
 
-// §3.3 and §3.4 fused on GPUs (the backend's detect_keypoints): one 64-wide work-group per cell of
-// every level computes FAST on the cell's pixels straight from the pyramid and keeps their
-// maximum, with no response plane between them. The key (response << 32) | ~(row-major index in
-// the cell) and the reduction are cull_cells_group's; the pixels within `edge` of the border have
-// response 0, as fast_crf gives them. The same cell records as fast_crf then cull_cells.
-__kernel __attribute__((reqd_work_group_size(64, 1, 1)))
+// §3.3 and §3.4 fused on GPUs (the backend's detect_keypoints): FAST on the cells' pixels straight
+// from the pyramid, each cell's maximum kept, no response plane between them. The work split is
+// checks::CellGroups, in the grid's first_group and group_shift: a 256-wide work-group holds
+// 256 >> group_shift cells of one level, 1 << group_shift work-items each (a 32 x 32 cell takes the
+// whole group, four pixels per work-item; 8 x 8 cells sixteen to a group). The key
+// (response << 32) | ~(row-major index in the cell) and its maximum are cull_cells_group's; the
+// pixels within `edge` of the border have response 0, as fast_crf gives them. The same cell
+// records as fast_crf then cull_cells.
+__kernel __attribute__((reqd_work_group_size(256, 1, 1)))
 void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
                      const porta_cells grid, const int eps, const int edge, __global porta_keypoint* out) {
-  __local ulong best[64];
-  const int cell = (int)get_group_id(0);
+  __local ulong best[256];
+  const int group = (int)get_group_id(0);
   const int lid = (int)get_local_id(0);
-  const int n = porta_locate_cell(&grid, cell);
-  if (n < 0) return;  // the whole group: `cell` is uniform
+  int n = 0;  // the last level whose groups start at or before this one (empty levels have none)
+  for (int i = 1; i < grid.count; ++i)
+    if (group >= grid.level[i].first_group) n = i;
   const porta_level_cells g = grid.level[n];
   const porta_plane src = layout.level[n];
-  const int index = cell - g.first_cell;
-  const int cy = index / g.cols, cx = index - cy * g.cols;
-  const int x0 = cx * g.cell_w, y0 = cy * g.cell_h;
-  const int w = min(x0 + g.cell_w, src.width) - x0, h = min(y0 + g.cell_h, src.height) - y0;
+  const int shift = g.group_shift;  // uniform over the group
+  const int slot = lid >> shift, lane = lid & ((1 << shift) - 1);
+  const int index = (group - g.first_group) * (256 >> shift) + slot;
+  const bool active = index < g.cols * g.rows;
   ulong key = 0;
-  for (int i = lid; i < w * h; i += 64) {
-    const int dy = i / w;
-    const int x = x0 + i - dy * w, y = y0 + dy;
-    if (y < edge || y >= src.height - edge || x < edge || x >= src.width - edge) continue;
-    const ulong r =
-        (ulong)porta_fast_response(pyramid + src.offset_bytes + (long)y * src.pitch + x, src.pitch, lut, eps);
-    const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
-    key = r > 0 && k > key ? k : key;
+  int x0 = 0, y0 = 0, w = 1;
+  if (active) {
+    const int cy = index / g.cols, cx = index - cy * g.cols;
+    x0 = cx * g.cell_w;
+    y0 = cy * g.cell_h;
+    w = min(x0 + g.cell_w, src.width) - x0;
+    const int h = min(y0 + g.cell_h, src.height) - y0;
+    for (int i = lane; i < w * h; i += 1 << shift) {
+      const int dy = i / w;
+      const int x = x0 + i - dy * w, y = y0 + dy;
+      if (y < edge || y >= src.height - edge || x < edge || x >= src.width - edge) continue;
+      const ulong r =
+          (ulong)porta_fast_response(pyramid + src.offset_bytes + (long)y * src.pitch + x, src.pitch, lut, eps);
+      const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
+      key = r > 0 && k > key ? k : key;
+    }
   }
-  porta_write_cell_maximum(best, lid, key, x0, y0, w, n, out + cell);
+  // Each cell's work-items are contiguous: a tree over the lanes of every slot at once.
+  best[lid] = key;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int stride = (1 << shift) >> 1; stride > 0; stride >>= 1) {
+    if (lane < stride && best[lid + stride] > best[lid]) best[lid] = best[lid + stride];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lane != 0 || !active) return;
+  const ulong k = best[lid];
+  const ushort r = (ushort)(k >> 32);
+  const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
+  out[g.first_cell + index] = r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
 }
 
 // §3.5 and the compaction of at most a few hundred cells in one 1024-wide work-group (GPUs; the

@@ -35,9 +35,9 @@ struct LevelCells {
   int cols;
   int rows;
   int first_cell;
+  int first_group;  // fast_cull.comp's work split (checks::CellGroups); 0 elsewhere
+  int group_shift;
   int pad0;
-  int pad1;
-  int pad2;
 };
 
 struct Cells {

@@ -1,5 +1,5 @@
-// Shared by the workgroup-per-cell culling shaders (cull_cells.comp, fast_cull.comp): finding a
-// cell and the end of its reduction. The including shader declares its parameter block `p` with
+// Of the workgroup-per-cell culling shader (cull_cells.comp; fast_cull.comp splits its work as
+// checks::CellGroups instead): finding a cell and the end of its reduction. The including shader declares its parameter block `p` with
 // the grid as `Cells cells`, `cells_out` (uvec2, writable) and the 64-wide workgroup. Needs
 // GL_EXT_shader_explicit_arithmetic_types_int64.
 

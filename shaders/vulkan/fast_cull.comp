@@ -3,13 +3,17 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "common.glsl"
 
-// §3.3 and §3.4 fused on GPUs (the backend's detect_keypoints): one workgroup per cell of every
-// level computes FAST (fast_crf.comp's test) on the cell's pixels straight from the pyramid and
-// keeps their maximum, with no response plane between them. The key (response << 32) |
-// ~(row-major index in the cell) and the reduction are cull_cells.comp's; pixels within `edge` of
-// the border have response 0, as fast_crf gives them. The same cell records as fast_crf then
-// cull_cells.
-layout(local_size_x = 64) in;
+// §3.3 and §3.4 fused on GPUs (the backend's detect_keypoints): FAST (fast_crf.comp's test) on the
+// cells' pixels straight from the pyramid, each cell's maximum kept, no response plane between them.
+// The work split is checks::CellGroups, in the grid's first_group and group_shift: a 256-wide
+// workgroup holds 256 >> group_shift cells of one level, 1 << group_shift invocations each (a
+// 32 x 32 cell takes the whole workgroup, four pixels per invocation; 8 x 8 cells sixteen to a
+// workgroup). The key (response << 32) | ~(row-major index in the cell) and its maximum are
+// cull_cells.comp's, reduced through shared memory (no subgroup operations, so any subgroup size
+// gives the same bytes); pixels within `edge` of the border have response 0, as fast_crf gives
+// them. The same cell records as fast_crf then cull_cells.
+#define GROUP 256
+layout(local_size_x = GROUP) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Pyramid { uint8_t pyramid[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Lut { uint8_t lut[]; };
@@ -23,33 +27,59 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
   int pad1;
 } p;
 
-#include "cull_common.glsl"
-
 #include "fast_common.glsl"
 
+shared uint64_t best[GROUP];
+
 void main() {
-  const int cell = int(porta_linear_group());
-  const int n = cull_level_of(cell);
-  if (n < 0) return;  // the whole workgroup: `cell` is uniform
+  const int group = int(porta_linear_group());
+  int n = 0;  // the last level whose workgroups start at or before this one (empty levels have none)
+  for (int i = 1; i < p.cells.count; ++i)
+    if (group >= p.cells.level[i].first_group) n = i;
   const LevelCells grid = p.cells.level[n];
   const Plane s = p.layout_.level[n];
-  const int index = cell - grid.first_cell;
-  const int cell_y = index / grid.cols;
-  const int cell_x = index - cell_y * grid.cols;
-  const int y0 = cell_y * grid.cell_h;
-  const int x0 = cell_x * grid.cell_w;
-  const int w = min(x0 + grid.cell_w, s.width) - x0;
-  const int h = min(y0 + grid.cell_h, s.height) - y0;
+  const int shift = grid.group_shift;  // uniform over the workgroup
+  const int lid = int(gl_LocalInvocationID.x);
+  const int slot = lid >> shift, lane = lid & ((1 << shift) - 1);
+  const int index = (group - grid.first_group) * (GROUP >> shift) + slot;
+  const bool in_grid = index < grid.cols * grid.rows;
 
-  const uint lid = gl_LocalInvocationID.x;
   uint64_t key = 0ul;
-  for (int i = int(lid); i < w * h; i += 64) {
-    const int dy = i / w;
-    const int x = x0 + i - dy * w, y = y0 + dy;
-    if (y < p.edge || y >= s.height - p.edge || x < p.edge || x >= s.width - p.edge) continue;
-    const uint r = fast_response(s.offset_bytes + y * s.pitch + x, s.pitch, p.eps);
-    const uint64_t k = (uint64_t(r) << 32) | uint64_t(0xFFFFFFFFu - uint(i));
-    key = r > 0u && k > key ? k : key;
+  int x0 = 0, y0 = 0, w = 1;
+  if (in_grid) {
+    const int cell_y = index / grid.cols;
+    const int cell_x = index - cell_y * grid.cols;
+    y0 = cell_y * grid.cell_h;
+    x0 = cell_x * grid.cell_w;
+    w = min(x0 + grid.cell_w, s.width) - x0;
+    const int h = min(y0 + grid.cell_h, s.height) - y0;
+    for (int i = lane; i < w * h; i += 1 << shift) {
+      const int dy = i / w;
+      const int x = x0 + i - dy * w, y = y0 + dy;
+      if (y < p.edge || y >= s.height - p.edge || x < p.edge || x >= s.width - p.edge) continue;
+      const uint r = fast_response(s.offset_bytes + y * s.pitch + x, s.pitch, p.eps);
+      const uint64_t k = (uint64_t(r) << 32) | uint64_t(0xFFFFFFFFu - uint(i));
+      key = r > 0u && k > key ? k : key;
+    }
   }
-  cull_write_maximum(key, cell, x0, y0, w, n);
+  // Each cell's invocations are contiguous: a tree over the lanes of every slot at once.
+  best[lid] = key;
+  barrier();
+  for (int stride = (1 << shift) >> 1; stride > 0; stride >>= 1) {
+    if (lane < stride) {
+      const uint64_t other = best[lid + stride];
+      if (other > best[lid]) best[lid] = other;
+    }
+    barrier();
+  }
+  if (lane == 0 && in_grid) {
+    const uint64_t k = best[lid];
+    const uint r = uint(k >> 32);
+    uvec2 kp = uvec2(0u);
+    if (r > 0u) {
+      const int i = int(0xFFFFFFFFu - uint(k & 0xFFFFFFFFul));
+      kp = make_keypoint(uint(x0 + i % w), uint(y0 + i / w), r, uint(n), 0u);
+    }
+    cells_out[grid.first_cell + index] = kp;
+  }
 }

@@ -102,6 +102,40 @@ TEST(Culling, CellSizesShrinkWithTheLevelScale) {
   EXPECT_EQ(half.levels[2].cell_w, 8);  // exact quotients do not floor one below
 }
 
+TEST(Culling, FusedWorkgroupsGiveEachCellAPowerOfTwoOfAQuarterOfItsPixels) {
+  // 256x256 halved per level with 32-pixel cells: every level has 8x8 cells, of 1024, 256 and 64
+  // pixels.
+  const auto half = build_cell_layout(pyramid_level_sizes(256, 256, 3, 2.0), 32, 32, 2.0);
+  const checks::CellGroups g = checks::plan_cell_groups("test", "fast_cull", half, 256);
+  ASSERT_EQ(g.shift.size(), 3u);
+  EXPECT_EQ(g.shift[0], 8);  // 1024 px: 256 invocations, one cell per workgroup
+  EXPECT_EQ(g.shift[1], 6);  // 256 px: 64 invocations, 4 cells per workgroup
+  EXPECT_EQ(g.shift[2], 4);  // 64 px: 16 invocations, 16 cells per workgroup
+  EXPECT_EQ(g.first_group[0], 0);
+  EXPECT_EQ(g.first_group[1], 64);
+  EXPECT_EQ(g.first_group[2], 64 + 16);
+  EXPECT_EQ(g.groups, 64 + 16 + 4);
+  // 39x12 = 468 cells of 22x22 (484 px: 128 invocations, 2 cells per workgroup) take 234
+  // workgroups; of 5x5 (25 px: 8 invocations, 32 cells per workgroup) ceil(468 / 32) = 15; three
+  // 1x1 cells one invocation each, in one workgroup.
+  CellLayout odd;
+  odd.levels.push_back({22, 22, 39, 12, 0});
+  odd.levels.push_back({5, 5, 39, 12, 468});
+  odd.levels.push_back({1, 1, 3, 1, 936});
+  odd.levels.push_back({1, 1, 0, 0, 939});  // empty: no workgroups
+  odd.total_cells = 939;
+  const checks::CellGroups o = checks::plan_cell_groups("test", "fast_cull", odd, 256);
+  EXPECT_EQ(o.shift[0], 7);
+  EXPECT_EQ(o.shift[1], 3);
+  EXPECT_EQ(o.shift[2], 0);
+  EXPECT_EQ(o.first_group[1], 234);
+  EXPECT_EQ(o.first_group[2], 234 + 15);
+  EXPECT_EQ(o.first_group[3], 234 + 15 + 1);
+  EXPECT_EQ(o.groups, 234 + 15 + 1);
+  // A smaller workgroup caps the invocations per cell.
+  EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", half, 64).shift[0], 6);
+}
+
 TEST(Blur, TapsAreSymmetricAndSumTo256) {
   const auto t = build_blur_taps();
   EXPECT_EQ(std::accumulate(t.begin(), t.end(), 0), 256);

@@ -178,4 +178,18 @@ class FusedPyramidLevels {
   std::map<std::vector<std::int32_t>, int> known_;  // key: the levels' widths and heights
 };
 
+/// The work split of the fused FAST and culling kernels (vulkan fast_cull.comp, opencl
+/// fast_cull_group): workgroups of `group_size` invocations (a power of two), each level's cells
+/// `1 << shift[n]` invocations each, the power of two >= a quarter of the level's cell pixels (1 to
+/// group_size): a 32 x 32 cell is scanned four pixels per invocation by a whole workgroup, 8 x 8
+/// cells share one sixteen at a time. Level n's cells start at workgroup first_group[n].
+struct CellGroups {
+  std::vector<std::int32_t> first_group;
+  std::vector<std::int32_t> shift;
+  std::int64_t groups = 0;  ///< workgroups in all
+};
+/// Throws BackendError when the workgroups would not fit in 32-bit signed indices.
+CellGroups plan_cell_groups(std::string_view backend, std::string_view kernel, const CellLayout& cells,
+                            int group_size);
+
 }  // namespace porta::checks
