@@ -71,9 +71,6 @@ ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaPar
 /// more than the host saved on launches: 234 against 207 us per stereo pair with the separate PFA
 /// and compaction, 4 frames in flight and pinned input, where the device bounds opencl.
 constexpr int kPfaCompactGroupCells = 512;
-/// pfa_compact_group runs PFA in local memory, without the level-0 maps, up to this many cells
-/// (detect.cl's PORTA_PFA_LOCAL_CELLS).
-constexpr int kPfaLocalCells = 256;
 /// fast_cull_group's work-group size (its reqd_work_group_size).
 constexpr int kFastCullGroup = 256;
 
@@ -211,12 +208,10 @@ void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   if (pfa != nullptr) p = check_pfa(cells, cell_layout, *pfa);
   const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
   const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(p.width0, 1)) * std::max(p.height0, 1);
-  // Without PFA's maps (no PFA, or few enough cells for PFA in local memory) or items, the cell
-  // array stands in for the unused buffers (nothing is written there).
-  const bool maps = pfa != nullptr && total > kPfaLocalCells;
-  Buffer& sum_map = maps ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& level_map = maps ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& rejected = maps ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  // Without PFA or items, the cell array stands in for the unused buffers (nothing is written there).
+  Buffer& sum_map = pfa != nullptr ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
   const Buffer& items = capacity > 0 ? *out.items : cells;
   launch("detect", "pfa_compact_group", Range::linear(1024, 1024), cells, static_cast<cl_int>(pfa != nullptr ? 1 : 0),
          p, sum_map, level_map, rejected, static_cast<cl_int>(total), items, static_cast<cl_uint>(capacity),

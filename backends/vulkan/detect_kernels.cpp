@@ -89,9 +89,6 @@ struct PfaCompactParams {  // pfa_compact_group.comp (push constants): PFA's, th
   std::uint32_t use_pfa, capacity, count_offset;
 };
 static_assert(sizeof(PfaCompactParams) <= kMaxPushBytes);
-/// pfa_compact_group.comp runs PFA in shared memory, without the level-0 maps, up to this many
-/// cells (pfa_shared.glsl's PFA_SHARED_CELLS).
-constexpr int kPfaSharedCells = 256;
 /// fast_cull.comp's workgroup size (its GROUP).
 constexpr int kFastCullGroup = 256;
 /// pfa_compact_group.comp's most cells (its invocations loop over them; as kPfaGroupCells).
@@ -246,12 +243,10 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   g.capacity = static_cast<std::uint32_t>(capacity);
   g.count_offset = static_cast<std::uint32_t>(out.count_offset_bytes);
   const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(g.pfa.width0, 1)) * std::max(g.pfa.height0, 1);
-  // Without PFA's maps (no PFA, or few enough cells for PFA in shared memory) or items, the cell
-  // array stands in for the unused bindings (nothing is written there).
-  const bool maps = pfa != nullptr && total > kPfaSharedCells;
-  Buffer& sum_map = maps ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& level_map = maps ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& rejected = maps ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  // Without PFA or items, the cell array stands in for the unused bindings (nothing is written there).
+  Buffer& sum_map = pfa != nullptr ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
   const Buffer* items = capacity > 0 ? out.items : &cells;
   rt().dispatch("pfa_compact_group", {&cells, &sum_map, &level_map, &rejected, items, out.count}, g,
                 Work::groups(1));

@@ -524,58 +524,6 @@ void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, _
   out[g.first_cell + index] = r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
 }
 
-// §3.5 PFA of at most PORTA_PFA_LOCAL_CELLS cells in one work-group, in local memory instead of
-// the level-0 maps (pfa_compact_group): each keypoint's score is summed over the keypoints
-// projected to its own location, and it is rejected when a keypoint within `reach` of its location
-// in x and y scores strictly more. Locations without a keypoint score 0, which no keypoint's own
-// score is below, so this is the maps' decision (clipping the window to the image changes
-// nothing, every location being inside it). O(n^2) on one compute unit: only for small arrays,
-// where it saves the maps' global round trips. Every work-item of the group calls it, with the
-// same `total` (0: nothing but its barriers).
-#define PORTA_PFA_LOCAL_CELLS 256
-#define PORTA_PFA_NO_LOCATION 0xFFFFFFFFu
-inline void porta_pfa_in_local(__global porta_keypoint* cells, const porta_pfa* p, const int total,
-                               const int threads, __local uint* loc, __local uint* xs, __local uint* ys,
-                               __local uint* value, __local uint* score) {
-  const int t = (int)get_local_id(0);
-  for (int i = t; i < total; i += threads) {
-    const porta_keypoint kp = cells[i];
-    uint l = PORTA_PFA_NO_LOCATION;
-    if (porta_pfa_keypoint(kp, p)) {
-      l = porta_pfa_location(kp, p->scales, p->width0, p->height0);
-      xs[i] = l % (uint)p->width0;
-      ys[i] = l / (uint)p->width0;
-      value[i] = (uint)kp.response | ((uint)kp.level << 16);
-    }
-    loc[i] = l;
-  }
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int i = t; i < total; i += threads) {
-    const uint l = loc[i];
-    if (l == PORTA_PFA_NO_LOCATION) continue;
-    uint sum = 0, levels = 0;
-    for (int j = 0; j < total; ++j) {
-      if (loc[j] != l) continue;
-      sum += value[j] & 0xFFFFu;
-      levels |= 1u << (value[j] >> 16);
-    }
-    score[i] = sum * popcount(levels);
-  }
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int i = t; i < total; i += threads) {
-    if (loc[i] == PORTA_PFA_NO_LOCATION) continue;
-    const uint own = score[i];
-    const int x = (int)xs[i], y = (int)ys[i];
-    bool reject = false;
-    for (int j = 0; j < total; ++j) {
-      if (loc[j] == PORTA_PFA_NO_LOCATION) continue;
-      const int dx = (int)xs[j] - x, dy = (int)ys[j] - y;
-      reject = reject || (dx >= -p->reach && dx <= p->reach && dy >= -p->reach && dy <= p->reach && score[j] > own);
-    }
-    if (reject) cells[i] = porta_cell_keypoint(0, 0, 0, 0);
-  }
-}
-
 // §3.5 and the compaction of at most a few hundred cells in one 1024-wide work-group (GPUs; the
 // backend's detect_keypoints): pfa_group's steps when use_pfa (uniform), a barrier, then
 // compact_group's scan with 1024 work-items. The same bytes as pfa_filter then compact_keypoints.
@@ -585,14 +533,9 @@ void pfa_compact_group(__global porta_keypoint* cells, const int use_pfa, const 
                        __global porta_keypoint* items, const uint capacity, __global uchar* count_bytes,
                        const ulong count_offset) {
   __local uint sums[1024];
-  __local uint loc[PORTA_PFA_LOCAL_CELLS], xs[PORTA_PFA_LOCAL_CELLS], ys[PORTA_PFA_LOCAL_CELLS];
-  __local uint value[PORTA_PFA_LOCAL_CELLS], score[PORTA_PFA_LOCAL_CELLS];
-  // PFA in local memory (the maps unused) is called whether or not it has cells, so that its
-  // barriers are not inside a branch beside the other's (PoCL miscompiled, then crashed on, an
-  // if / else with barriers in both).
-  const bool in_local = use_pfa && total_cells <= PORTA_PFA_LOCAL_CELLS;
-  porta_pfa_in_local(cells, &p, in_local ? total_cells : 0, 1024, loc, xs, ys, value, score);
-  if (use_pfa && !in_local) porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
-  barrier(CLK_GLOBAL_MEM_FENCE);  // the cleared cells are read by other work-items below
+  if (use_pfa) {
+    porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
+    barrier(CLK_GLOBAL_MEM_FENCE);  // the cleared cells are read by other work-items below
+  }
   porta_compact_in_group(cells, total_cells, items, capacity, count_bytes, count_offset, sums, 1024);
 }

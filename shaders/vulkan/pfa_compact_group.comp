@@ -13,12 +13,10 @@
   uint capacity;         \
   uint count_offset;
 #include "pfa_common.glsl"
-#include "pfa_shared.glsl"
 
 // §3.5 PFA and the compaction of at most a few hundred cells in one workgroup (GPUs; the
 // backend's detect_keypoints): pfa_group.comp's three steps when use_pfa (uniform), then
-// compact_group.comp's scan with 1024 invocations, a barrier instead of a dispatch between them;
-// up to PFA_SHARED_CELLS cells PFA runs in shared memory instead (pfa_shared.glsl).
+// compact_group.comp's scan with 1024 invocations, a barrier instead of a dispatch between them.
 // The same bytes as pfa_filter then compact_keypoints.
 layout(local_size_x = 1024) in;
 
@@ -31,11 +29,7 @@ layout(std430, set = 0, binding = 5) writeonly buffer Count { uint8_t count_byte
 void main() {
   const uint total = uint(p.total_cells);
   const uint t = gl_LocalInvocationID.x;
-  if (p.use_pfa != 0u && total <= PFA_SHARED_CELLS) {
-    pfa_in_shared(total, t, 1024u);  // the maps are not bound (the host passes the cells there)
-    memoryBarrierBuffer();
-    barrier();  // the cleared cells are read by other invocations below
-  } else if (p.use_pfa != 0u) {
+  if (p.use_pfa != 0u) {
     for (uint i = t; i < total; i += 1024u) pfa_accumulate_cell(i);
     memoryBarrierBuffer();
     barrier();
