@@ -438,17 +438,14 @@ void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
 // from the pyramid, each cell's maximum kept, no response plane between them. The work split is
 // checks::CellGroups, in the grid's first_group and group_shift: a 256-wide work-group holds
 // 256 >> group_shift cells of one level, 1 << group_shift work-items each (a 32 x 32 cell takes the
-// whole group, four pixels per work-item, read into local memory first; 8 x 8 cells sixteen to a
-// group). The key
+// whole group, four pixels per work-item; 8 x 8 cells sixteen to a group). The key
 // (response << 32) | ~(row-major index in the cell) and its maximum are cull_cells_group's; the
 // pixels within `edge` of the border have response 0, as fast_crf gives them. The same cell
 // records as fast_crf then cull_cells.
-#define PORTA_FAST_CULL_TILE 2304  // ints: a cell of up to 42 x 42 pixels with its halo
 __kernel __attribute__((reqd_work_group_size(256, 1, 1)))
 void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
                      const porta_cells grid, const int eps, const int edge, __global porta_keypoint* out) {
   __local ulong best[256];
-  __local int tile[PORTA_FAST_CULL_TILE];
   const int group = (int)get_group_id(0);
   const int lid = (int)get_local_id(0);
   int n = 0;  // the last level whose groups start at or before this one (empty levels have none)
@@ -461,45 +458,13 @@ void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, _
   const int index = (group - g.first_group) * (256 >> shift) + slot;
   const bool active = index < g.cols * g.rows;
   ulong key = 0;
-  int x0 = 0, y0 = 0, w = 1, h = 0;
+  int x0 = 0, y0 = 0, w = 1;
   if (active) {
     const int cy = index / g.cols, cx = index - cy * g.cols;
     x0 = cx * g.cell_w;
     y0 = cy * g.cell_h;
     w = min(x0 + g.cell_w, src.width) - x0;
-    h = min(y0 + g.cell_h, src.height) - y0;
-  }
-  // Uniform: a group of one cell (then active everywhere) whose region fits the tile is read
-  // into local memory with its 3-pixel halo first (clamped to the level: a pixel whose circle
-  // leaves the level is within `edge` >= 3 of its border and is not tested).
-  if ((256 >> shift) == 1 && (g.cell_w + 6) * (g.cell_h + 6) <= PORTA_FAST_CULL_TILE) {
-    const int tw = w + 6;
-    for (int k = lid; k < tw * (h + 6); k += 256) {
-      const int r = k / tw, c = k - r * tw;
-      const int sy = clamp(y0 - 3 + r, 0, src.height - 1);
-      const int sx = clamp(x0 - 3 + c, 0, src.width - 1);
-      tile[k] = pyramid[src.offset_bytes + (long)sy * src.pitch + sx];
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (int i = lid; i < w * h; i += 256) {
-      const int dy = i / w, dx = i - dy * w;
-      const int x = x0 + dx, y = y0 + dy;
-      if (y < edge || y >= src.height - edge || x < edge || x >= src.width - edge) continue;
-      const int centre = (dy + 3) * tw + dx + 3;
-      const int c = tile[centre];
-      uint bright = 0, dark = 0;
-      int sum = 0;
-      for (int j = 0; j < 16; ++j) {
-        const int q = tile[centre + porta_fast_dy[j] * tw + porta_fast_dx[j]];
-        if (q > c + eps) bright |= 1u << j;
-        if (q < c - eps) dark |= 1u << j;
-        sum += abs(q - c);
-      }
-      const ulong r = (lut[bright] | lut[dark]) ? (ulong)sum : 0;
-      const ulong k = (r << 32) | (ulong)(0xFFFFFFFFu - (uint)i);
-      key = r > 0 && k > key ? k : key;
-    }
-  } else if (active) {
+    const int h = min(y0 + g.cell_h, src.height) - y0;
     for (int i = lane; i < w * h; i += 1 << shift) {
       const int dy = i / w;
       const int x = x0 + i - dy * w, y = y0 + dy;

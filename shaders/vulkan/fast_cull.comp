@@ -8,7 +8,7 @@
 // The work split is checks::CellGroups, in the grid's first_group and group_shift: a 256-wide
 // workgroup holds 256 >> group_shift cells of one level, 1 << group_shift invocations each (a
 // 32 x 32 cell takes the whole workgroup, four pixels per invocation; 8 x 8 cells sixteen to a
-// workgroup; a workgroup of one cell reads it with its halo into shared memory first). The key (response << 32) | ~(row-major index in the cell) and its maximum are
+// workgroup). The key (response << 32) | ~(row-major index in the cell) and its maximum are
 // cull_cells.comp's, reduced through shared memory (no subgroup operations, so any subgroup size
 // gives the same bytes); pixels within `edge` of the border have response 0, as fast_crf gives
 // them. The same cell records as fast_crf then cull_cells.
@@ -31,26 +31,6 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
 
 shared uint64_t best[GROUP];
 
-// A workgroup with one cell of at most TILE_CAP pixels with its 3-pixel halo reads them into shared
-// memory first (one round of independent loads, clamped to the level: a pixel whose circle leaves
-// the level is within `edge` >= 3 of its border and is not tested), then tests its pixels there.
-#define TILE_CAP 2304
-shared int tile[TILE_CAP];
-
-// fast_response (fast_common.glsl) on the tile, `centre` an index into it, rows `tw` apart.
-uint tile_response(int centre, int tw, int eps) {
-  const int c = tile[centre];
-  uint bright = 0u, dark = 0u;
-  int sum = 0;
-  for (int i = 0; i < 16; ++i) {
-    const int q = tile[centre + kDy[i] * tw + kDx[i]];
-    if (q > c + eps) bright |= 1u << i;
-    if (q < c - eps) dark |= 1u << i;
-    sum += abs(q - c);
-  }
-  return (uint(lut[bright]) | uint(lut[dark])) != 0u ? uint(sum) : 0u;
-}
-
 void main() {
   const int group = int(porta_linear_group());
   int n = 0;  // the last level whose workgroups start at or before this one (empty levels have none)
@@ -65,35 +45,14 @@ void main() {
   const bool in_grid = index < grid.cols * grid.rows;
 
   uint64_t key = 0ul;
-  int x0 = 0, y0 = 0, w = 1, h = 0;
+  int x0 = 0, y0 = 0, w = 1;
   if (in_grid) {
     const int cell_y = index / grid.cols;
     const int cell_x = index - cell_y * grid.cols;
     y0 = cell_y * grid.cell_h;
     x0 = cell_x * grid.cell_w;
     w = min(x0 + grid.cell_w, s.width) - x0;
-    h = min(y0 + grid.cell_h, s.height) - y0;
-  }
-  // Uniform: a workgroup of one cell (then in_grid everywhere) whose region fits the tile.
-  if ((GROUP >> shift) == 1 && (grid.cell_w + 6) * (grid.cell_h + 6) <= TILE_CAP) {
-    const int tw = w + 6;
-    for (int k = lid; k < tw * (h + 6); k += GROUP) {
-      const int r = k / tw, c = k - r * tw;
-      const int sy = clamp(y0 - 3 + r, 0, s.height - 1);
-      const int sx = clamp(x0 - 3 + c, 0, s.width - 1);
-      tile[k] = int(pyramid[s.offset_bytes + sy * s.pitch + sx]);
-    }
-    barrier();
-    for (int i = lid; i < w * h; i += GROUP) {
-      const int dy = i / w;
-      const int dx = i - dy * w;
-      const int x = x0 + dx, y = y0 + dy;
-      if (y < p.edge || y >= s.height - p.edge || x < p.edge || x >= s.width - p.edge) continue;
-      const uint r = tile_response((dy + 3) * tw + dx + 3, tw, p.eps);
-      const uint64_t k = (uint64_t(r) << 32) | uint64_t(0xFFFFFFFFu - uint(i));
-      key = r > 0u && k > key ? k : key;
-    }
-  } else if (in_grid) {
+    const int h = min(y0 + grid.cell_h, s.height) - y0;
     for (int i = lane; i < w * h; i += 1 << shift) {
       const int dy = i / w;
       const int x = x0 + i - dy * w, y = y0 + dy;
