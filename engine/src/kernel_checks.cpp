@@ -346,11 +346,15 @@ CellGroups plan_cell_groups(std::string_view backend, std::string_view kernel, c
   while ((1 << (group_shift + 1)) <= group_size) ++group_shift;
   std::int64_t grid_pixels = 0;
   for (const LevelCells& c : cells.levels) grid_pixels += static_cast<std::int64_t>(c.count()) * c.cell_w * c.cell_h;
-  const std::int64_t per_invocation = grid_pixels < kSmallGridPixels ? 4 : 16;
+  const bool small = grid_pixels < kSmallGridPixels;
   for (const LevelCells& c : cells.levels) {
     const std::int64_t pixels = static_cast<std::int64_t>(c.cell_w) * c.cell_h;
     int shift = 0;
-    while (shift < group_shift && (std::int64_t{1} << shift) * per_invocation < pixels) ++shift;
+    if (small) {
+      while (shift < group_shift && (std::int64_t{1} << shift) * 4 < pixels) ++shift;
+    } else {
+      shift = std::min(6, group_shift);
+    }
     g.first_group.push_back(static_cast<std::int32_t>(g.groups));
     g.shift.push_back(shift);
     const std::int64_t per_group = std::int64_t{1} << (group_shift - shift);

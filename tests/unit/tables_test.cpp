@@ -102,7 +102,7 @@ TEST(Culling, CellSizesShrinkWithTheLevelScale) {
   EXPECT_EQ(half.levels[2].cell_w, 8);  // exact quotients do not floor one below
 }
 
-TEST(Culling, FusedWorkgroupsGiveEachCellAPowerOfTwoOfItsPixelsOverFourOrSixteen) {
+TEST(Culling, FusedWorkgroupsGiveSmallGridsAQuarterOfACellsPixelsAndLargeOnes64) {
   // 256x256 halved per level with 32-pixel cells: every level has 8x8 cells, of 1024, 256 and 64
   // pixels.
   const auto half = build_cell_layout(pyramid_level_sizes(256, 256, 3, 2.0), 32, 32, 2.0);
@@ -134,13 +134,13 @@ TEST(Culling, FusedWorkgroupsGiveEachCellAPowerOfTwoOfItsPixelsOverFourOrSixteen
   EXPECT_EQ(o.groups, 234 + 15 + 1);
   // A smaller workgroup caps the invocations per cell.
   EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", half, 64).shift[0], 6);
-  // A grid of 2^18 pixels or more: 16 pixels per invocation. 1242x375 with 8 levels: 64
-  // invocations for level 0's 32 x 32 cells (4 to a workgroup), 32 for level 2's 22 x 22.
+  // A grid of 2^18 pixels or more: 64 invocations for every level's cells, 4 to a workgroup.
   const auto kitti = build_cell_layout(pyramid_level_sizes(1242, 375, 8, 1.2), 32, 32, 1.2);
   const checks::CellGroups k = checks::plan_cell_groups("test", "fast_cull", kitti, 256);
   EXPECT_EQ(k.shift[0], 6);
-  EXPECT_EQ(k.shift[2], 5);
+  EXPECT_EQ(k.shift[7], 6);
   EXPECT_EQ(k.first_group[1], (kitti.levels[0].count() + 3) / 4);
+  EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", kitti, 32).shift[0], 5);
   CellLayout edge;  // exactly 2^18 pixels: the large split
   edge.levels.push_back({32, 32, 16, 16, 0});
   edge.total_cells = 256;

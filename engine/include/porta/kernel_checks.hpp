@@ -180,15 +180,15 @@ class FusedPyramidLevels {
 
 /// The work split of the fused FAST and culling kernels (vulkan fast_cull.comp, opencl
 /// fast_cull_group): workgroups of `group_size` invocations (a power of two), each level's cells
-/// `1 << shift[n]` invocations each, the power of two >= the level's cell pixels over P (1 to
-/// group_size), where P is 4 pixels per invocation for a grid of fewer than kSmallGridPixels
-/// pixels and 16 above. A small image leaves most of a GPU idle, and its cells' scans are then
-/// its latency: at 320x240 with one level a 32 x 32 cell takes a whole 256-wide workgroup (H100:
-/// 16.9 -> 9.1 us against 64 invocations per cell). A large one fills the GPU with 64 per 32 x 32
-/// cell, four cells to a workgroup, and more invocations only add reduction steps (1242x375, 8
-/// levels: 44.8 against 49.5 us on NVIDIA's OpenCL at 4 pixels each). Small cells share a
-/// workgroup either way (8 x 8 cells 4 or 16 at a time). Level n's cells start at workgroup
-/// first_group[n].
+/// `1 << shift[n]` invocations each, 256 / that many cells to a workgroup. For a grid of fewer
+/// than kSmallGridPixels pixels, the power of two >= a quarter of the level's cell pixels (1 to
+/// group_size): such an image leaves most of a GPU idle, and its cells' scans are its latency (at
+/// 320x240 with one level a 32 x 32 cell takes a whole 256-wide workgroup; H100: 16.9 -> 9.1 us
+/// against 64 invocations per cell). Above, 64 invocations per cell of every level, four cells
+/// to a workgroup, as the 64-wide workgroup per cell this replaced: at 1242x375 with 8 levels
+/// the GPU is full, and both 4 and 16 pixels per invocation were slower there on the H100 (NVIDIA
+/// OpenCL 49.5 and 54.3 against 44.8-45.1 us per stereo frame; Vulkan 51.8 and 58.0 against
+/// 52.1-52.2). Level n's cells start at workgroup first_group[n].
 inline constexpr std::int64_t kSmallGridPixels = std::int64_t{1} << 18;
 struct CellGroups {
   std::vector<std::int32_t> first_group;
