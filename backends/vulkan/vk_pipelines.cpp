@@ -22,6 +22,7 @@ constexpr std::uint32_t kBuffersPerPool = kSetsPerPool * 8;
 /// What a compute module declares, as far as the runtime needs it.
 struct Reflection {
   std::uint32_t bindings = 0;
+  std::uint32_t written = 0;  ///< set-0 bindings the shader may write (not NonWritable), one bit each
   bool push = false;
   bool params_buffer = false;
   std::uint32_t local[3] = {0, 0, 0};
@@ -29,9 +30,10 @@ struct Reflection {
 
 // SPIR-V opcodes, decorations and storage classes used below (SPIR-V spec, section 3).
 constexpr std::uint32_t kSpirvMagic = 0x07230203;
-constexpr std::uint32_t kOpExecutionMode = 16, kOpVariable = 59, kOpDecorate = 71;
+constexpr std::uint32_t kOpExecutionMode = 16, kOpTypeStruct = 30, kOpTypePointer = 32, kOpVariable = 59,
+                        kOpDecorate = 71, kOpMemberDecorate = 72;
 constexpr std::uint32_t kExecutionModeLocalSize = 17;
-constexpr std::uint32_t kDecorationBinding = 33, kDecorationDescriptorSet = 34;
+constexpr std::uint32_t kDecorationNonWritable = 24, kDecorationBinding = 33, kDecorationDescriptorSet = 34;
 constexpr std::uint32_t kStorageUniform = 2, kStoragePushConstant = 9, kStorageStorageBuffer = 12;
 
 Reflection reflect(const EmbeddedSpirv& module) {
@@ -42,6 +44,11 @@ Reflection reflect(const EmbeddedSpirv& module) {
   Reflection r;
   std::map<std::uint32_t, std::uint32_t> set_of, binding_of;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> variables;  // (id, storage class)
+  // Whether a buffer is read-only: NonWritable on the variable, or on every member of its block
+  // (glslang decorates a `readonly buffer`'s members).
+  std::map<std::uint32_t, std::uint32_t> type_of, pointee_of, members_of;  // variable, pointer, struct
+  std::map<std::uint32_t, std::set<std::uint32_t>> nonwritable_members;
+  std::set<std::uint32_t> nonwritable;
   for (std::size_t i = 5; i < n;) {
     const std::uint32_t op = w[i] & 0xFFFFu, count = w[i] >> 16;
     if (count == 0 || i + count > n)
@@ -50,11 +57,19 @@ Reflection reflect(const EmbeddedSpirv& module) {
       r.local[0] = w[i + 3];
       r.local[1] = w[i + 4];
       r.local[2] = w[i + 5];
-    } else if (op == kOpDecorate && count >= 4) {
-      if (w[i + 2] == kDecorationDescriptorSet) set_of[w[i + 1]] = w[i + 3];
-      if (w[i + 2] == kDecorationBinding) binding_of[w[i + 1]] = w[i + 3];
+    } else if (op == kOpDecorate && count >= 3) {
+      if (count >= 4 && w[i + 2] == kDecorationDescriptorSet) set_of[w[i + 1]] = w[i + 3];
+      if (count >= 4 && w[i + 2] == kDecorationBinding) binding_of[w[i + 1]] = w[i + 3];
+      if (w[i + 2] == kDecorationNonWritable) nonwritable.insert(w[i + 1]);
+    } else if (op == kOpMemberDecorate && count >= 4 && w[i + 3] == kDecorationNonWritable) {
+      nonwritable_members[w[i + 1]].insert(w[i + 2]);
+    } else if (op == kOpTypeStruct && count >= 2) {
+      members_of[w[i + 1]] = count - 2;
+    } else if (op == kOpTypePointer && count >= 4) {
+      pointee_of[w[i + 1]] = w[i + 3];
     } else if (op == kOpVariable && count >= 4) {
       variables.emplace_back(w[i + 2], w[i + 3]);
+      type_of[w[i + 2]] = w[i + 1];
     }
     i += count;
   }
@@ -67,6 +82,12 @@ Reflection reflect(const EmbeddedSpirv& module) {
       const std::uint32_t binding = binding_of.count(id) ? binding_of[id] : 0;
       if (set == 0) {
         set0.insert(binding);
+        const std::uint32_t block = pointee_of.count(type_of[id]) ? pointee_of[type_of[id]] : 0;
+        const bool read_only = nonwritable.count(id) > 0 || nonwritable.count(block) > 0 ||
+                               (members_of.count(block) > 0 && members_of[block] > 0 &&
+                                nonwritable_members[block].size() == members_of[block]);
+        if (binding >= 32) throw BackendError(where + "binds more than 32 buffers");
+        if (!read_only) r.written |= 1u << binding;
       } else if (set == 1 && binding == 0) {
         r.params_buffer = true;
       } else {
@@ -131,6 +152,7 @@ Runtime::Kernel& Runtime::kernel(const char* name, std::uint32_t params_bytes) {
   k->name = name;
   k->index = static_cast<std::uint32_t>(kernels_.size());
   k->bindings = r.bindings;
+  k->written = r.written;
   k->push = r.push;
   k->params_buffer = r.params_buffer;
   k->params_bytes = params_bytes;
@@ -297,7 +319,10 @@ bool Runtime::make_dispatch(const char* name, std::initializer_list<const Buffer
   c.kind = Command::Kind::kDispatch;
   c.kernel = &k;
   c.set = descriptor_set(k, bound);
-  for (const VulkanBuffer* b : bound) c.ids.push_back(b->memory().id);
+  for (std::size_t i = 0; i < bound.size(); ++i) {
+    c.ids.push_back(bound[i]->memory().id);
+    if ((k.written >> i) & 1u) c.writes.push_back(bound[i]->memory().id);
+  }
   c.groups[0] = static_cast<std::uint32_t>(gx);
   c.groups[1] = static_cast<std::uint32_t>(gy);
   return true;

@@ -107,6 +107,7 @@ std::unique_ptr<Buffer> Runtime::allocate(std::size_t bytes) {
     c.dst = m.buffer.get();
     c.bytes = m.size;
     c.ids = {m.id};
+    c.writes = {m.id};
     Stream& s = current();
     begin_record(s);
     push_command(s, std::move(c));
@@ -169,6 +170,7 @@ void Runtime::record_copy(Stream& s, const DeviceMemory& src, VkDeviceSize src_o
   c.dst_offset = dst_offset;
   c.bytes = bytes;
   c.ids = {src.id, dst.id};
+  c.writes = {dst.id};
   push_command(s, std::move(c));
 }
 
@@ -262,6 +264,7 @@ void Runtime::fill(Buffer& dst, std::size_t offset, std::size_t bytes, std::uint
   c.bytes = last_word - first_word;
   c.fill_word = 0x01010101u * value;
   c.ids = {m.id};
+  c.writes = {m.id};
   push_command(s, std::move(c));
   fill_bytes(last_word, end - last_word);
 }

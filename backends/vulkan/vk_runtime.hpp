@@ -124,6 +124,9 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   /// $PORTA_VULKAN_HOLD_BATCHES: how many unfinished batches on a device queue make start() hold
   /// the next one back (0: never; kDefaultHoldDepth by default).
   void set_hold_depth(int depth) { hold_depth_ = depth; }
+  /// $PORTA_VULKAN_ALL_BARRIERS=on: a barrier between every two commands of a batch, as before
+  /// barriers followed the buffers (push_command).
+  void set_all_barriers(bool all) { all_barriers_ = all; }
   int hold_depth() const { return hold_depth_; }
   static constexpr int kDefaultHoldDepth = 1;
   static constexpr int kMaxHoldDepth = 4;
@@ -153,6 +156,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     std::string name;
     std::uint32_t index = 0;         ///< creation order, for batch signatures
     std::uint32_t bindings = 0;      ///< storage buffers of set 0
+    std::uint32_t written = 0;       ///< the bindings it may write (not NonWritable), one bit each
     bool push = false;               ///< parameters as push constants
     bool params_buffer = false;      ///< parameters in set 1, binding 0
     std::uint32_t params_bytes = 0;  ///< fixed by the first dispatch
@@ -165,12 +169,15 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   struct Command {
     enum class Kind : std::uint8_t { kDispatch, kCopy, kFill };
     Kind kind = Kind::kDispatch;
-    /// A barrier before it: it may read what any earlier command wrote. False only for a command
-    /// merged beside another stream's (stream_wait): the first command of its group has it.
+    /// A barrier before it: it may read what any earlier command wrote. False for a command that
+    /// touches no buffer the commands since the last barrier write and writes none they use
+    /// (push_command), and for one merged beside another stream's (stream_wait): the first
+    /// command of its group has it.
     bool barrier_before = true;
     /// The stream whose parameter buffer holds its parameters (kDispatch).
     std::uint8_t params_stream = 0;
     std::vector<std::uint64_t> ids;  ///< buffers used: bindings in order; copy: src, dst; fill: dst
+    std::vector<std::uint64_t> writes;  ///< of those, the ones it may write
     // kDispatch
     const Kernel* kernel = nullptr;
     VkDescriptorSet set = VK_NULL_HANDLE;
@@ -320,6 +327,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   KernelProfile profile_;
   std::chrono::microseconds fence_poll_{0};
   int hold_depth_ = kDefaultHoldDepth;
+  bool all_barriers_ = false;
   std::uint64_t submit_clock_ = 0;
   int held_ = -1;  ///< the stream whose pending batch start() holds back, -1 when none
 };

@@ -129,6 +129,24 @@ void Runtime::note_use(Stream& s, std::uint64_t id) {
 void Runtime::push_command(Stream& s, Command c) {
   for (const std::uint64_t id : c.ids) note_use(s, id);
   if (c.kind == Command::Kind::kDispatch) s.pending_dispatch = true;
+  // A barrier only where the command touches a buffer that a command of the current group (those
+  // since the last barrier) writes, or writes one that such a command uses: commands on other
+  // buffers run side by side (the blur beside detection). Buffer granularity: a kernel writing one
+  // pyramid level and reading the one before waits for the level's writer.
+  if (!all_barriers_ && !s.pending.empty()) {
+    const auto touches = [](const std::vector<std::uint64_t>& a, const std::vector<std::uint64_t>& b) {
+      for (const std::uint64_t id : a)
+        if (contains(b, id)) return true;
+      return false;
+    };
+    bool hazard = false;
+    for (std::size_t i = s.pending.size(); i-- > 0 && !hazard;) {
+      const Command& g = s.pending[i];
+      hazard = touches(c.ids, g.writes) || touches(c.writes, g.ids);
+      if (g.barrier_before) break;  // the group's first command
+    }
+    c.barrier_before = hazard;
+  }
   s.pending.push_back(std::move(c));
 }
 
@@ -484,9 +502,10 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
   auto begin = make_info<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   begin.flags = one_time ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
   check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
-  // Each command may read what the one before wrote: a barrier between every two (DESIGN.md allows
-  // it; the frontend's kernels depend on each other in a chain), but not between commands merged
-  // side by side (merge_pending). Its stages and accesses are set per barrier below.
+  // A command may read what the ones before it wrote: a barrier wherever one touches the buffers
+  // of the group before it (push_command; between every two with $PORTA_VULKAN_ALL_BARRIERS=on),
+  // none between commands merged side by side (merge_pending). Its stages and accesses are set per
+  // barrier below.
   auto between = make_info<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
   between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
   between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
@@ -534,11 +553,13 @@ void Runtime::record(const Stream& s, VkCommandBuffer cmd, bool one_time) {
       between.srcAccessMask = group_writes;
       between.dstAccessMask = next_accesses;
       vkCmdPipelineBarrier(cmd, group_stages, next_stages, 0, 1, &between, 0, nullptr, 0, nullptr);
+      ++stats_.barriers_recorded;
       group_stages = 0;
       group_writes = 0;
     }
     group_stages |= stage_of(c);
     group_writes |= writes_of(c);
+    ++stats_.commands_recorded;
     switch (c.kind) {
       case Command::Kind::kDispatch: {
         const Kernel& k = *c.kernel;

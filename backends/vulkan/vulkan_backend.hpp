@@ -75,6 +75,8 @@ struct VulkanStats {
   std::uint64_t submits = 0;
   std::uint64_t merged_batches = 0;  ///< batches merged into another (stream_wait, held batches)
   std::uint64_t held_batches = 0;    ///< batches start() held back or merged into a held one while the device was busy
+  std::uint64_t commands_recorded = 0;  ///< dispatches, copies and fills in recorded command buffers
+  std::uint64_t barriers_recorded = 0;  ///< barriers between them (not counting each batch's first and last)
 };
 
 class VulkanBackend final : public Backend {

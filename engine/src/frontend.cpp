@@ -187,6 +187,11 @@ void Frontend::run_side(Slot& slot, Side& side, const ImageView* image, const In
 
   backend_.build_pyramid(*side.pyramid, pyramid_layout_, *resize_, tables_.resize.level_offset);
   stage(times.pyramid_ns);
+  // The blur needs the pyramid only: issued before detection, a backend may run it beside it.
+  if (options_.describe) {
+    backend_.blur(*side.pyramid, pyramid_layout_, *side.blurred, tables_.blur_taps);
+    stage(times.blur_ns);
+  }
 
   const auto& s = tables_.settings;
   const FastParams fast{s.fast_threshold, s.edge};
@@ -208,8 +213,6 @@ void Frontend::run_side(Slot& slot, Side& side, const ImageView* image, const In
   if (!options_.describe) return;
   backend_.orient(*side.pyramid, pyramid_layout_, list, tables_.umax, *boundaries_, s.orientation_bins);
   stage(times.orient_ns);
-  backend_.blur(*side.pyramid, pyramid_layout_, *side.blurred, tables_.blur_taps);
-  stage(times.blur_ns);
   backend_.orb_describe(*side.blurred, pyramid_layout_, list, *pattern_, *side.descriptors);
   stage(times.describe_ns);
 }

@@ -1,6 +1,7 @@
 // The Vulkan backend's own behaviour (the bytes of its kernels are the equivalence suite's
 // business): a steady frame loop creates no Vulkan objects and replays its recorded command
-// buffers, memory calls work at any alignment, and device selection errors list what was found.
+// buffers, barriers follow the buffers, memory calls work at any alignment, and device selection
+// errors list what was found.
 // Every test skips, saying why, when this build has no Vulkan backend or the machine no device.
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 #include "porta/frontend.hpp"
 #include "porta/registry.hpp"
 #include "support/backends.hpp"
+#include "support/scoped_env.hpp"
 #include "support/test_images.hpp"
 
 #if PORTA_HAVE_VULKAN_BACKEND
@@ -147,6 +149,42 @@ TEST_F(VulkanBackendTest, Batches_ReplayedBatchesUseEachCallsParameters) {
 // merges the right image's pending commands into the left's batch, step beside step. The merge
 // happens every frame, later frames replay the merged command buffer, and the features and matches
 // are the cpu backend's, one frame at a time and with frames in flight.
+bool same_stereo(const StereoFeatures& a, const StereoFeatures& b) {
+  const auto bytes_equal = [](const auto& x, const auto& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+  };
+  return bytes_equal(a.left.keypoints, b.left.keypoints) && bytes_equal(a.right.keypoints, b.right.keypoints) &&
+         bytes_equal(a.left.descriptors, b.left.descriptors) && bytes_equal(a.right.descriptors, b.right.descriptors) &&
+         bytes_equal(a.matches, b.matches);
+}
+
+// Barriers follow the buffers: a command waits for the ones before it only where it touches a
+// buffer they write or writes one they use, so a stereo frame records fewer barriers than one
+// between every two commands ($PORTA_VULKAN_ALL_BARRIERS=on: the blur, issued before detection,
+// runs beside it), with the cpu backend's bytes either way, and on the GPU kernels too.
+TEST_F(VulkanBackendTest, Barriers_OnlyWhereACommandTouchesTheBuffersBeforeIt) {
+  const FrontendSettings settings = small_settings();
+  const Image left = test::textured_image(320, 240, 7);
+  const Image right = test::shifted_right(left, 4);
+  auto cpu = BackendRegistry::instance().create("cpu");
+  const StereoFeatures expected = Frontend(*cpu, settings, 320, 240).detect_stereo(left.view(), right.view());
+  ASSERT_GT(expected.matches.size(), 0u);
+  for (const char* work_groups : {"off", "on"}) {
+    test::ScopedEnv groups("PORTA_VULKAN_WORK_GROUPS", work_groups);
+    const auto run = [&](const char* all) {
+      test::ScopedEnv barriers("PORTA_VULKAN_ALL_BARRIERS", all);
+      vulkan::VulkanBackend backend;
+      Frontend frontend(backend, settings, 320, 240);
+      EXPECT_TRUE(same_stereo(frontend.detect_stereo(left.view(), right.view()), expected))
+          << "all barriers " << all << ", work groups " << work_groups;
+      return backend.stats();
+    };
+    const vulkan::VulkanStats every = run("on"), followed = run("off");
+    EXPECT_EQ(followed.commands_recorded, every.commands_recorded) << work_groups;
+    EXPECT_LT(followed.barriers_recorded, every.barriers_recorded) << work_groups;
+  }
+}
+
 TEST_F(VulkanBackendTest, Streams_StereoImagesRunAsOneMergedBatch) {
   const FrontendSettings settings = small_settings();
   const Image left = test::textured_image(320, 240, 3);
@@ -155,14 +193,7 @@ TEST_F(VulkanBackendTest, Streams_StereoImagesRunAsOneMergedBatch) {
   Frontend reference(*cpu, settings, 320, 240);
   const StereoFeatures expected = reference.detect_stereo(left.view(), right.view());
   ASSERT_GT(expected.matches.size(), 0u);
-  const auto same = [](const StereoFeatures& a, const StereoFeatures& b) {
-    const auto bytes_equal = [](const auto& x, const auto& y) {
-      return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
-    };
-    return bytes_equal(a.left.keypoints, b.left.keypoints) && bytes_equal(a.right.keypoints, b.right.keypoints) &&
-           bytes_equal(a.left.descriptors, b.left.descriptors) &&
-           bytes_equal(a.right.descriptors, b.right.descriptors) && bytes_equal(a.matches, b.matches);
-  };
+  const auto same = same_stereo;
   for (const int in_flight : {1, 3}) {
     FrontendOptions options;
     options.in_flight = in_flight;
