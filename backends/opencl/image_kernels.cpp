@@ -87,7 +87,7 @@ void OpenClBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buf
   ClLevels cl_layout = to_cl(layout);
   ClLevelInts scratch_offset{};
   std::int64_t elements = 0;
-  std::size_t max_width = 0, rows = 0;
+  std::size_t rows = 0;
   for (int n = 0; n < layout.num_levels(); ++n) {
     const Plane& level = layout.levels[static_cast<std::size_t>(n)];
     if (level.width <= 0 || level.height <= 0) {  // nothing to blur: no rows for this level
@@ -99,14 +99,13 @@ void OpenClBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buf
     elements += static_cast<std::int64_t>(level.width) * level.height;
     if (elements > std::numeric_limits<cl_int>::max())
       throw BackendError("opencl: blur: the pyramid has more than 2^31 pixels");
-    max_width = std::max(max_width, static_cast<std::size_t>(level.width));
     rows += static_cast<std::size_t>(level.height);
   }
   if (elements == 0) return;
   ClLevelInts cl_taps{};
   for (int k = 0; k < 7; ++k) cl_taps.v[k] = taps[static_cast<std::size_t>(k)];
   Buffer& horizontal = scratch("blur_h", static_cast<std::size_t>(elements) * 2);
-  const Range range = Range::grid(max_width, rows);
+  const Range range = Range::linear(rows);
   launch("image", "blur_horizontal", range, pyramid, cl_layout, horizontal, scratch_offset, cl_taps);
   launch("image", "blur_vertical", range, horizontal, cl_layout, blurred, scratch_offset, cl_taps);
 }

@@ -127,8 +127,8 @@ void VulkanBackend::blur(const Buffer& pyramid, const PyramidLayout& layout, Buf
   if (elements == 0) return;
   for (int k = 0; k < 7; ++k) params.taps[k] = taps[static_cast<std::size_t>(k)];
   Buffer& horizontal = scratch("blur_h", static_cast<std::size_t>(elements) * 2);
-  rt().dispatch("blur_horizontal", {&pyramid, &horizontal}, params, Work::grid(max_width, rows));
-  rt().dispatch("blur_vertical", {&horizontal, &blurred}, params, Work::grid(max_width, rows));
+  rt().dispatch("blur_horizontal", {&pyramid, &horizontal}, params, Work::items(rows));
+  rt().dispatch("blur_vertical", {&horizontal, &blurred}, params, Work::items(rows));
 }
 
 }  // namespace porta::vulkan

@@ -172,37 +172,68 @@ void build_pyramid_fused(__global uchar* pyramid, const porta_levels layout, __g
       n, src_stride, xa[n - 1], ya[n - 1], x, y);
 }
 
-// §3.7 blur, horizontal pass (DESIGN.md §3.7): all levels in one launch, one work-item per pixel
-// (global: max width x sum of heights); h = sum t_k * p(reflect101(x + k - 3)) unrounded, into the
-// uint16 scratch plane of the level (packed, pitch = width, at element scratch_offset.v[n]).
-__kernel void blur_horizontal(__global const uchar* pyramid, const porta_levels layout, __global ushort* scratch,
-                              const porta_level_ints scratch_offset, const porta_level_ints taps) {
-  const int x = (int)get_global_id(0);
+// §3.7 blur, horizontal pass (DESIGN.md §3.7), for CPU devices and for a blur in place: all levels
+// in one launch, one work-item per row (global: the rows of all levels laid end to end), walking
+// the row in a loop the compiler vectorises, the three columns at each end by reflect101 and the
+// rest without it; h = sum t_k * p(reflect101(x + k - 3)) unrounded, into the uint16 scratch plane
+// of the level (packed, pitch = width, at element scratch_offset.v[n]).
+__kernel void blur_horizontal(__global const uchar* restrict pyramid, const porta_levels layout,
+                              __global ushort* restrict scratch, const porta_level_ints scratch_offset,
+                              const porta_level_ints taps) {
   int y = 0;
-  const int n = porta_image_locate_row(&layout, (int)get_global_id(1), &y);
+  const int n = porta_image_locate_row(&layout, (int)get_global_id(0), &y);
   if (n < 0) return;
   const porta_plane p = layout.level[n];
-  if (x >= p.width) return;
+  const int w = p.width;
   __global const uchar* row = pyramid + p.offset_bytes + (long)y * p.pitch;
-  uint sum = 0;
-  for (int k = 0; k < 7; ++k) sum += (uint)taps.v[k] * row[porta_reflect101(x + k - 3, p.width)];
-  scratch[scratch_offset.v[n] + (long)y * p.width + x] = (ushort)sum;
+  __global ushort* out = scratch + scratch_offset.v[n] + (long)y * w;
+  const uint t0 = (uint)taps.v[0], t1 = (uint)taps.v[1], t2 = (uint)taps.v[2], t3 = (uint)taps.v[3];
+  const uint t4 = (uint)taps.v[4], t5 = (uint)taps.v[5], t6 = (uint)taps.v[6];
+  const int head = min(3, w), tail = max(head, w - 3);
+  for (int x = 0; x < w; x = x + 1 == head ? tail : x + 1) {  // the ends: x < head and x >= tail
+    uint sum = 0;
+    for (int k = 0; k < 7; ++k) sum += (uint)taps.v[k] * row[porta_reflect101(x + k - 3, w)];
+    out[x] = (ushort)sum;
+  }
+  for (int x = head; x < tail; ++x) {
+    out[x] = (ushort)(t0 * row[x - 3] + t1 * row[x - 2] + t2 * row[x - 1] + t3 * row[x] + t4 * row[x + 1] +
+                      t5 * row[x + 2] + t6 * row[x + 3]);
+  }
 }
 
 // §3.7 blur, vertical pass (DESIGN.md §3.7): out = (sum t_k * h(reflect101(y + k - 3)) + 2^15) >> 16
-// into the blurred pyramid (same layout as the source); global as blur_horizontal.
-__kernel void blur_vertical(__global const ushort* scratch, const porta_levels layout, __global uchar* blurred,
-                            const porta_level_ints scratch_offset, const porta_level_ints taps) {
-  const int x = (int)get_global_id(0);
+// into the blurred pyramid (same layout as the source); one work-item per row as blur_horizontal.
+__kernel void blur_vertical(__global const ushort* restrict scratch, const porta_levels layout,
+                            __global uchar* restrict blurred, const porta_level_ints scratch_offset,
+                            const porta_level_ints taps) {
   int y = 0;
-  const int n = porta_image_locate_row(&layout, (int)get_global_id(1), &y);
+  const int n = porta_image_locate_row(&layout, (int)get_global_id(0), &y);
   if (n < 0) return;
   const porta_plane p = layout.level[n];
-  if (x >= p.width) return;
-  __global const ushort* h = scratch + scratch_offset.v[n] + x;
-  uint sum = 0;
-  for (int k = 0; k < 7; ++k) sum += (uint)taps.v[k] * h[(long)porta_reflect101(y + k - 3, p.height) * p.width];
-  blurred[p.offset_bytes + (long)y * p.pitch + x] = (uchar)((sum + (1u << 15)) >> 16);
+  const int w = p.width;
+  __global const ushort* plane = scratch + scratch_offset.v[n];
+  __global const ushort* h0 = plane + (long)porta_reflect101(y - 3, p.height) * w;
+  __global const ushort* h1 = plane + (long)porta_reflect101(y - 2, p.height) * w;
+  __global const ushort* h2 = plane + (long)porta_reflect101(y - 1, p.height) * w;
+  __global const ushort* h3 = plane + (long)y * w;
+  __global const ushort* h4 = plane + (long)porta_reflect101(y + 1, p.height) * w;
+  __global const ushort* h5 = plane + (long)porta_reflect101(y + 2, p.height) * w;
+  __global const ushort* h6 = plane + (long)porta_reflect101(y + 3, p.height) * w;
+  __global uchar* out = blurred + p.offset_bytes + (long)y * p.pitch;
+  const uint t0 = (uint)taps.v[0], t1 = (uint)taps.v[1], t2 = (uint)taps.v[2], t3 = (uint)taps.v[3];
+  const uint t4 = (uint)taps.v[4], t5 = (uint)taps.v[5], t6 = (uint)taps.v[6];
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {  // eight columns at a time, in vector registers
+    const uint8 sum = t0 * convert_uint8(vload8(0, h0 + x)) + t1 * convert_uint8(vload8(0, h1 + x)) +
+                      t2 * convert_uint8(vload8(0, h2 + x)) + t3 * convert_uint8(vload8(0, h3 + x)) +
+                      t4 * convert_uint8(vload8(0, h4 + x)) + t5 * convert_uint8(vload8(0, h5 + x)) +
+                      t6 * convert_uint8(vload8(0, h6 + x));
+    vstore8(convert_uchar8((sum + (1u << 15)) >> 16), 0, out + x);
+  }
+  for (; x < w; ++x) {
+    const uint sum = t0 * h0[x] + t1 * h1[x] + t2 * h2[x] + t3 * h3[x] + t4 * h4[x] + t5 * h5[x] + t6 * h6[x];
+    out[x] = (uchar)((sum + (1u << 15)) >> 16);
+  }
 }
 
 // §3.7 blur on GPUs (as blur_horizontal + blur_vertical): one 32 x 8 work-group per tile of any

@@ -1,8 +1,8 @@
-// Shared by blur_horizontal.comp and blur_vertical.comp (§3.7 blur, DESIGN.md §3.7): both run over
-// the rows of all levels laid end to end (global: widest level x total rows), with the same
-// parameters. `scratch_offset[n]` is the element index of level n's packed (pitch = width) uint16
+// Shared by blur_horizontal.comp and blur_vertical.comp (§3.7 blur, DESIGN.md §3.7), the blur of
+// CPU devices (lavapipe) and of a blur in place: both run one invocation per row of all levels laid
+// end to end (Work::items(total rows)), walking the row in a loop, with the same parameters. `scratch_offset[n]` is the element index of level n's packed (pitch = width) uint16
 // plane of horizontal sums; `taps` the 7 integer taps summing to 256.
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = 64) in;
 
 layout(std430, set = 1, binding = 0) readonly buffer Params {
   Levels layout_;
