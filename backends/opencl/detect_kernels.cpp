@@ -77,7 +77,7 @@ constexpr int kFastCullGroup = 256;
 }  // namespace
 
 // §3.3, one launch. GPUs: one work-group per 32 x 8 tile of any level, the tile read once into
-// local memory (fast_tiled); elsewhere one work-item per pixel of every level (fast_crf).
+// local memory (fast_tiled); elsewhere one work-item per row of every level (fast_crf).
 void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout, const FastParams& params) {
   check_fast(pyramid, layout, lut, responses, response_layout, params);
@@ -92,7 +92,7 @@ void OpenClBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
   std::size_t max_width = 0, rows = 0;
   const ClLevels src = rows_of_levels(layout, max_width, rows);
   if (rows == 0) return;
-  launch("detect", "fast_crf", Range::grid(max_width, rows), pyramid, src, lut, responses, to_cl(response_layout),
+  launch("detect", "fast_crf", Range::linear(rows), pyramid, src, lut, responses, to_cl(response_layout),
          static_cast<cl_int>(params.threshold), static_cast<cl_int>(params.edge));
 }
 
