@@ -97,7 +97,7 @@ constexpr int kPfaCompactGroupCells = 512;
 }  // namespace
 
 // §3.3, one dispatch. GPUs: one workgroup per 32 x 8 tile of any level, the tile read once into
-// shared memory (fast_tiled.comp). Elsewhere: one invocation per pixel of every level (rows of all
+// shared memory (fast_tiled.comp). Elsewhere: one invocation per row of every level (rows of all
 // levels end to end).
 void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                              Buffer& responses, const PyramidLayout& response_layout,
@@ -120,7 +120,7 @@ void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
   p.dst = to_glsl(response_layout, "fast_crf");
   p.eps = params.threshold;
   p.edge = params.edge;
-  rt().dispatch("fast_crf", {&pyramid, &lut, &responses}, p, Work::grid(max_width, rows));
+  rt().dispatch("fast_crf", {&pyramid, &lut, &responses}, p, Work::items(rows));
 }
 
 // §3.4: one workgroup per cell of every level, one dispatch; the workgroup reduces the cell

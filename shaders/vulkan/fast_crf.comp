@@ -2,11 +2,12 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
-// §3.3 FAST CRF with bounded rectification (DESIGN.md §3.3, backends/cpu/detect_kernels.cpp): one
-// invocation per pixel of every level, the rows of all levels laid end to end (global: widest
-// level x total rows). Response = sum |I_i - c| over the circle when lut[bright] | lut[dark], else
-// 0; pixels within `edge` of the border get 0, so every pixel of the level is written.
-layout(local_size_x = 8, local_size_y = 8) in;
+// §3.3 FAST CRF with bounded rectification (DESIGN.md §3.3, backends/cpu/detect_kernels.cpp) for
+// CPU devices (lavapipe): one invocation per row of every level, the rows of all levels laid end
+// to end (Work::items(total rows)), walking the row with the circle's offsets fixed. Response =
+// sum |I_i - c| over the circle when lut[bright] | lut[dark], else 0; pixels within `edge` of the
+// border get 0, so every pixel of the level is written.
+layout(local_size_x = 64) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Pyramid { uint8_t pyramid[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Lut { uint8_t lut[]; };
@@ -21,8 +22,7 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
 #include "fast_common.glsl"
 
 void main() {
-  const int x = int(gl_GlobalInvocationID.x);
-  int row = int(gl_GlobalInvocationID.y);
+  int row = int(porta_linear_index());
   int n = -1;
   for (int i = 0; i < p.src.count; ++i) {
     if (row < p.src.level[i].height) {
@@ -35,10 +35,28 @@ void main() {
   const int y = row;
   const Plane s = p.src.level[n];
   const Plane d = p.dst.level[n];
-  if (x >= d.width) return;
-  uint response = 0u;
-  if (y >= p.edge && y < s.height - p.edge && x >= p.edge && x < s.width - p.edge)
-    response = fast_response(s.offset_bytes + y * s.pitch + x, s.pitch, p.eps);
+  const int eps = p.eps, edge = p.edge;
   // Response planes hold 2-byte elements: offset_bytes is even (checked on the host).
-  responses[d.offset_bytes / 2 + y * d.pitch + x] = uint16_t(response);
+  const int base = d.offset_bytes / 2 + y * d.pitch;
+  const bool row_inside = y >= edge && y < s.height - edge;
+  const int x_begin = row_inside ? min(max(edge, 0), d.width) : d.width;
+  const int x_end = row_inside ? max(x_begin, min(s.width - edge, d.width)) : d.width;
+  for (int x = 0; x < x_begin; ++x) responses[base + x] = uint16_t(0);
+  for (int x = x_end; x < d.width; ++x) responses[base + x] = uint16_t(0);
+  int offset[16];
+  for (int i = 0; i < 16; ++i) offset[i] = kDy[i] * s.pitch + kDx[i];
+  const int centre_row = s.offset_bytes + y * s.pitch;
+  for (int x = x_begin; x < x_end; ++x) {
+    const int centre = centre_row + x;
+    const int c = int(pyramid[centre]);
+    uint bright = 0u, dark = 0u;
+    int sum = 0;
+    for (int i = 0; i < 16; ++i) {
+      const int q = int(pyramid[centre + offset[i]]);
+      bright |= uint(q > c + eps) << i;
+      dark |= uint(q < c - eps) << i;
+      sum += abs(q - c);
+    }
+    responses[base + x] = uint16_t((uint(lut[bright]) | uint(lut[dark])) != 0u ? uint(sum) : 0u);
+  }
 }
