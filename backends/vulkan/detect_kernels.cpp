@@ -125,7 +125,8 @@ void VulkanBackend::fast_crf(const Buffer& pyramid, const PyramidLayout& layout,
 
 // §3.4: one workgroup per cell of every level, one dispatch; the workgroup reduces the cell
 // through shared memory (no subgroup operations, so any subgroup size gives the same bytes).
-// Small cells: one invocation per cell instead (cull_cells_small.comp), the same bytes.
+// Small cells, and any cells on CPU devices (lavapipe, where a workgroup's barriers cost more than
+// the scan): one invocation per cell instead (cull_cells_small.comp), the same bytes.
 void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& response_layout,
                                const CellLayout& cell_layout, Buffer& cells) {
   const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
@@ -134,7 +135,7 @@ void VulkanBackend::cull_cells(const Buffer& responses, const PyramidLayout& res
     largest_cell = std::max(largest_cell, static_cast<std::int64_t>(c.cell_w) * c.cell_h);
   const CullCellsParams p{to_glsl(response_layout, "cull_cells"), to_glsl(cell_layout, "cull_cells"),
                           static_cast<std::int32_t>(end_cell), {0, 0, 0}};
-  if (largest_cell <= kSmallCellPixels) {
+  if (largest_cell <= kSmallCellPixels || !work_groups()) {
     rt().dispatch("cull_cells_small", {&responses, &cells}, p, Work::items(static_cast<std::uint64_t>(end_cell)));
   } else {
     rt().dispatch("cull_cells", {&responses, &cells}, p, Work::groups(static_cast<std::uint64_t>(end_cell)));

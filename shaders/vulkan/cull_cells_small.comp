@@ -1,13 +1,13 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "common.glsl"
 
 // §3.4 feature culling for small cells (at most kSmallCellPixels, detect_kernels.cpp): one
 // invocation per cell scans it alone, so a grid of many tiny cells costs no workgroup barriers
 // (on lavapipe a barrier-synchronised workgroup per 2x2 cell made an 8000x40 image take 27 s).
-// The same key as cull_cells.comp, (response << 32) | ~(row-major index in the cell), and the
-// same maximum: the bytes are those of cull_cells.comp and of the cpu backend.
+// cull_cells.comp takes the maximum of the key (response << 32) | ~(row-major index in the cell);
+// a row-major scan keeping a strictly larger response finds the same pixel: the bytes are those of
+// cull_cells.comp and of the cpu backend. Also the culling of any cells on CPU devices (lavapipe).
 layout(local_size_x = 64) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Responses { uint16_t responses[]; };
@@ -41,19 +41,21 @@ void main() {
   const int h = min(y0 + grid.cell_h, plane.height) - y0;
   const int base = plane.offset_bytes / 2 + y0 * plane.pitch + x0;
 
-  uint64_t key = 0ul;
-  for (int i = 0; i < w * h; ++i) {
-    const int dy = i / w;
-    const int dx = i - dy * w;
-    const uint r = uint(responses[base + dy * plane.pitch + dx]);
-    const uint64_t k = (uint64_t(r) << 32) | uint64_t(0xFFFFFFFFu - uint(i));
-    key = k > key ? k : key;
+  // Row-major with a strict '>': the largest response at the smallest index, the maximum of the key.
+  uint r = 0u;
+  int best_x = 0, best_y = 0;
+  for (int dy = 0; dy < h; ++dy) {
+    const int row = base + dy * plane.pitch;
+    for (int dx = 0; dx < w; ++dx) {
+      const uint v = uint(responses[row + dx]);
+      if (v > r) {
+        r = v;
+        best_x = dx;
+        best_y = dy;
+      }
+    }
   }
-  const uint r = uint(key >> 32);
   uvec2 kp = uvec2(0u);
-  if (r > 0u) {
-    const int i = int(0xFFFFFFFFu - uint(key & 0xFFFFFFFFul));
-    kp = make_keypoint(uint(x0 + i % w), uint(y0 + i / w), r, uint(n), 0u);
-  }
+  if (r > 0u) kp = make_keypoint(uint(x0 + best_x), uint(y0 + best_y), r, uint(n), 0u);
   cells_out[cell] = kp;
 }
