@@ -8,7 +8,9 @@
 #   usage: ci/gpu.sh [OUT_DIR]        (default OUT_DIR: ./gpu-results)
 #
 # Results in OUT_DIR: report.md (machine, devices, summary table), summary.md (the table alone),
-# equivalence.log (every case), equivalence.xml (JUnit), build.log, machine.txt.
+# equivalence.log (every case), equivalence.xml (JUnit), build.log, machine.txt; and the same
+# again with the kernels vulkan and opencl run on CPU devices (*-cpu-paths.*; PORTA_GPU_CPU_PATHS=off
+# leaves that run out).
 # Exit status: 0 when every backend that was built and has a device passed every case; 1 otherwise
 # (a failed case, a backend that did not build, or a built backend that found no device).
 #
@@ -197,6 +199,19 @@ start=$(date +%s)
 status=$?
 elapsed=$(( $(date +%s) - start ))
 
+# ---- 5b. The kernels of CPU devices, on this GPU's drivers ---------------------------------------
+# vulkan and opencl run other kernels on CPU devices (lavapipe, PoCL: blur, FAST and culling per row
+# or per cell, docs/ARCHITECTURE.md); CI proves them on those, this run on NVIDIA's compilers too.
+# PORTA_GPU_CPU_PATHS=off leaves it out.
+cpu_paths_status=0
+if [ "${PORTA_GPU_CPU_PATHS:-on}" = on ]; then
+  say "again with the kernels of CPU devices (PORTA_VULKAN_WORK_GROUPS=off PORTA_OPENCL_WORK_GROUPS=off); log: $out_dir/equivalence-cpu-paths.log"
+  PORTA_EQUIVALENCE_SUMMARY="$out_dir/summary-cpu-paths.md" PORTA_VULKAN_WORK_GROUPS=off PORTA_OPENCL_WORK_GROUPS=off \
+    "$binary" "--gtest_output=xml:$out_dir/equivalence-cpu-paths.xml" >"$out_dir/equivalence-cpu-paths.log" 2>&1
+  cpu_paths_status=$?
+  [ "$status" = 0 ] && status=$cpu_paths_status
+fi
+
 # ---- 6. Report -----------------------------------------------------------------------------------
 {
   echo "# PortaSLAM equivalence on $(hostname)"
@@ -208,16 +223,27 @@ elapsed=$(( $(date +%s) - start ))
   [ ${#dropped[@]} -gt 0 ] && echo "**Build failed for: ${dropped[*]}** (left out; see build.log)" && echo
   sed -n '/^| kernel/,$p' "$out_dir/summary.md" 2>/dev/null
   echo
+  if [ -f "$out_dir/summary-cpu-paths.md" ]; then
+    echo "With the kernels of CPU devices (work groups off; exit status $cpu_paths_status):"
+    echo
+    sed -n '/^| kernel/,$p' "$out_dir/summary-cpu-paths.md"
+    echo
+  fi
   echo "suite exit status $status after ${elapsed} s; finished $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
 } >"$out_dir/report.md"
 
 echo
 grep -E "^\[  FAILED  \]" "$out_dir/equivalence.log" | head -40
+[ -f "$out_dir/equivalence-cpu-paths.log" ] && grep -E "^\[  FAILED  \]" "$out_dir/equivalence-cpu-paths.log" | head -40
 echo
 echo "==== PortaSLAM equivalence on $(hostname), $(date -u '+%Y-%m-%d %H:%M UTC') ===="
 nvidia-smi -L 2>/dev/null
 [ ${#dropped[@]} -gt 0 ] && echo "BUILD FAILED for: ${dropped[*]} (left out; see $build_log)"
 sed -n '/^| kernel/,$p' "$out_dir/summary.md" 2>/dev/null || tail -30 "$out_dir/equivalence.log"
+if [ -f "$out_dir/summary-cpu-paths.md" ]; then
+  echo "-- with the kernels of CPU devices (work groups off): exit status $cpu_paths_status"
+  sed -n '/^| kernel/,$p' "$out_dir/summary-cpu-paths.md"
+fi
 grep -E "^REQUIRED BACKEND NOT RUN" "$out_dir/equivalence.log"
 echo "suite: exit status $status in ${elapsed} s; results in $out_dir (report.md, equivalence.log)"
 
