@@ -1,6 +1,8 @@
 // See bench_kernels.hpp.
 #include "bench_kernels.hpp"
 
+#include <algorithm>
+#include <cstdio>
 #include <sstream>
 
 namespace porta::app {
@@ -22,18 +24,20 @@ void print_kernel_profiles(const std::vector<KernelProfileRow>& rows, std::FILE*
       continue;
     }
     double total_ms = 0.0, host_ms = 0.0;
+    int width = 28;  // the name column: the longest name, at least 28
     for (const KernelTime& k : row.kernels) {
       total_ms += k.device_ms;
       host_ms += k.host_ms;
+      width = std::max(width, static_cast<int>(k.kernel.size()));
     }
-    std::fprintf(out, "  %-28s %12s %14s %7s %10s\n", "kernel", "dispatches", "device us", "share", "host us");
+    std::fprintf(out, "  %-*s %12s %14s %7s %10s\n", width, "kernel", "dispatches", "device us", "share", "host us");
     for (const KernelTime& k : row.kernels) {
-      std::fprintf(out, "  %-28s %12.1f %14.1f %6.1f%% %10.1f\n", k.kernel.c_str(),
+      std::fprintf(out, "  %-*s %12.1f %14.1f %6.1f%% %10.1f\n", width, k.kernel.c_str(),
                    per_frame(static_cast<double>(k.dispatches), row.frames), per_frame(k.device_ms * 1e3, row.frames),
                    total_ms > 0.0 ? 100.0 * k.device_ms / total_ms : 0.0, per_frame(k.host_ms * 1e3, row.frames));
     }
-    std::fprintf(out, "  %-28s %12s %14.1f %7s %10.1f  (per frame; sums of the dispatches, not the frame's wall time)\n",
-                 "all", "", per_frame(total_ms * 1e3, row.frames), "", per_frame(host_ms * 1e3, row.frames));
+    std::fprintf(out, "  %-*s %12s %14.1f %7s %10.1f  (per frame; sums of the dispatches, not the frame's wall time)\n",
+                 width, "all", "", per_frame(total_ms * 1e3, row.frames), "", per_frame(host_ms * 1e3, row.frames));
   }
 }
 

@@ -100,10 +100,14 @@ void VulkanBackend::stereo_match(const Buffer& left_pyramid, const Buffer& right
   Buffer& sads = scratch("stereo_match.sads", static_cast<std::size_t>(left_capacity) * sizeof(std::int32_t));
   Buffer& histogram = scratch("stereo_match.histogram", kHistogramBytes);
   fill(histogram, 0, kHistogramBytes, 0);
-  rt().dispatch("stereo_match_candidates",
+  // GPUs: a workgroup of 64 per left slot; CPU devices: one invocation per slot (the same bytes).
+  const bool groups = work_groups();
+  rt().dispatch(groups ? "stereo_match_candidates" : "stereo_match_candidates_per_item",
                 {&left_pyramid, &right_pyramid, left_keypoints.items, left_keypoints.count, &left_descriptors,
                  right_items, right_count, &right_descriptors, &matches, &sads, &histogram},
-                p, Work::groups(static_cast<std::uint64_t>(left_capacity)));
+                p,
+                groups ? Work::groups(static_cast<std::uint64_t>(left_capacity))
+                       : Work::items(static_cast<std::uint64_t>(left_capacity)));
   const StereoFinishParams f{left_capacity, p.left_count_offset};
   rt().dispatch("stereo_match_finish", {left_keypoints.count, &sads, &histogram, &matches}, f,
                 Work::groups(1));
