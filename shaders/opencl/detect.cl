@@ -149,16 +149,23 @@ __kernel void cull_cells(__global const ushort* responses, const porta_levels re
   const int n = a.level, x0 = a.x0, x1 = a.x1, y0 = a.y0, y1 = a.y1;
   __global const ushort* level = a.responses;
   const int pitch = a.pitch;
+  // The maximum first (a reduction the compiler vectorises), then its first pixel in row-major
+  // order: the pixel a row-major scan keeping a strictly larger response finds.
   ushort best = 0;
-  int best_x = 0, best_y = 0;
   for (int y = y0; y < y1; ++y) {
     __global const ushort* row = level + (long)y * pitch;
+    for (int x = x0; x < x1; ++x) best = max(best, row[x]);
+  }
+  int best_x = 0, best_y = 0;
+  bool found = best == 0;
+  for (int y = y0; y < y1 && !found; ++y) {
+    __global const ushort* row = level + (long)y * pitch;
     for (int x = x0; x < x1; ++x) {
-      const ushort r = row[x];
-      if (r > best) {
-        best = r;
+      if (row[x] == best) {
         best_x = x;
         best_y = y;
+        found = true;
+        break;
       }
     }
   }
