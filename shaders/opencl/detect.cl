@@ -46,8 +46,8 @@ inline ushort porta_fast_response(__global const uchar* centre, const int pitch,
 }
 
 // §3.3 FAST CRF with bounded rectification (DESIGN.md §3.3), for CPU devices: one work-item per
-// row of every level (global: the sum of the heights), walking the row in a loop the compiler
-// vectorises (the circle's 16 offsets fixed for the row). Response = sum |I_i - c| over the circle
+// row of every level (global: the sum of the heights), walking the row sixteen pixels at a time in
+// vector types (the circle's 16 offsets fixed for the row). Response = sum |I_i - c| over the circle
 // when lut[bright] | lut[dark], else 0; pixels within `edge` of the border get 0, so every pixel of
 // the level's width x height is written.
 __kernel void fast_crf(__global const uchar* restrict pyramid, const porta_levels layout,
@@ -149,8 +149,8 @@ __kernel void cull_cells(__global const ushort* responses, const porta_levels re
   const int n = a.level, x0 = a.x0, x1 = a.x1, y0 = a.y0, y1 = a.y1;
   __global const ushort* level = a.responses;
   const int pitch = a.pitch;
-  // The maximum first (a reduction the compiler vectorises), then its first pixel in row-major
-  // order: the pixel a row-major scan keeping a strictly larger response finds.
+  // The maximum first (a reduction without branches), then its first pixel in row-major order:
+  // the pixel a row-major scan keeping a strictly larger response finds.
   ushort best = 0;
   for (int y = y0; y < y1; ++y) {
     __global const ushort* row = level + (long)y * pitch;

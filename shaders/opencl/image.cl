@@ -174,8 +174,7 @@ void build_pyramid_fused(__global uchar* pyramid, const porta_levels layout, __g
 
 // §3.7 blur, horizontal pass (DESIGN.md §3.7), for CPU devices and for a blur in place: all levels
 // in one launch, one work-item per row (global: the rows of all levels laid end to end), walking
-// the row in a loop the compiler vectorises, the three columns at each end by reflect101 and the
-// rest without it; h = sum t_k * p(reflect101(x + k - 3)) unrounded, into the uint16 scratch plane
+// the row in a loop, the three columns at each end by reflect101 and the rest without it; h = sum t_k * p(reflect101(x + k - 3)) unrounded, into the uint16 scratch plane
 // of the level (packed, pitch = width, at element scratch_offset.v[n]).
 __kernel void blur_horizontal(__global const uchar* restrict pyramid, const porta_levels layout,
                               __global ushort* restrict scratch, const porta_level_ints scratch_offset,
