@@ -1,7 +1,8 @@
 // Shared by blur_horizontal.comp and blur_vertical.comp (§3.7 blur, DESIGN.md §3.7), the blur of
 // CPU devices (lavapipe) and of a blur in place: both run one invocation per row of all levels laid
-// end to end (Work::items(total rows)), walking the row in a loop, with the same parameters. `scratch_offset[n]` is the element index of level n's packed (pitch = width) uint16
-// plane of horizontal sums; `taps` the 7 integer taps summing to 256.
+// end to end (Work::items(total rows)), walking the row in a loop, with the same parameters.
+// `scratch_offset[n]` is the element index of level n's packed (pitch = width) uint16 plane of
+// horizontal sums; `taps` the 7 integer taps summing to 256.
 layout(local_size_x = 64) in;
 
 layout(std430, set = 1, binding = 0) readonly buffer Params {
