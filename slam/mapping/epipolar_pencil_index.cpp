@@ -62,39 +62,45 @@ EpipolarPencilIndex::EpipolarPencilIndex(std::span<const double> u, std::span<co
   if (!pencil_) return;  // band_ranges() gives all points, in index order
 
   // Ring, then direction, then index: a total order, so the layout does not depend on the sort.
+  // The points are sorted as (ring, direction, index) records, not through an index array whose
+  // comparisons would each fetch two points' keys from elsewhere.
   constexpr std::size_t rings = kRings;
-  std::vector<int> ring(n);
-  std::vector<double> direction(n);
+  struct Entry {
+    int ring;
+    int index;
+    double direction;
+  };
+  std::vector<Entry> entries(n);
   for (std::size_t j = 0; j < n; ++j) {
     const double dx = u[j] - epipole.x(), dy = v[j] - epipole.y();
     const double radius = std::hypot(dx, dy);
-    ring[j] = static_cast<int>(std::upper_bound(std::begin(kRingRadii), std::end(kRingRadii), radius) -
-                               std::begin(kRingRadii)) -
-              1;
-    direction[j] = direction_mod_pi(dx, dy);
+    const int ring = static_cast<int>(std::upper_bound(std::begin(kRingRadii), std::end(kRingRadii), radius) -
+                                      std::begin(kRingRadii)) -
+                     1;
+    entries[j] = {ring, static_cast<int>(j), direction_mod_pi(dx, dy)};
   }
-  std::sort(order_.begin(), order_.end(), [&](int a, int b) {
-    const auto sa = static_cast<std::size_t>(a), sb = static_cast<std::size_t>(b);
-    if (ring[sa] != ring[sb]) return ring[sa] < ring[sb];
-    if (direction[sa] != direction[sb]) return direction[sa] < direction[sb];
-    return a < b;
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    if (a.ring != b.ring) return a.ring < b.ring;
+    if (a.direction != b.direction) return a.direction < b.direction;
+    return a.index < b.index;
   });
-  std::vector<double> sorted_direction(n);
   for (std::size_t k = 0; k < n; ++k) {
-    const auto j = static_cast<std::size_t>(order_[k]);
-    sorted_direction[k] = direction[j];
-    ++ring_start_[static_cast<std::size_t>(ring[j]) + 1];
+    order_[k] = entries[k].index;
+    ++ring_start_[static_cast<std::size_t>(entries[k].ring) + 1];
   }
   for (std::size_t r = 1; r <= rings; ++r) ring_start_[r] += ring_start_[r - 1];
+  // Bucket b of ring r starts at the ring's first position whose direction is at least
+  // b pi / kBuckets: one walk along each ring, the directions ascending.
   bucket_start_.resize(rings * (kBuckets + 1));
   for (std::size_t r = 0; r < rings; ++r) {
-    const auto begin = sorted_direction.begin() + ring_start_[r], end = sorted_direction.begin() + ring_start_[r + 1];
+    int k = ring_start_[r];
+    const int end = ring_start_[r + 1];
     for (std::size_t b = 0; b < kBuckets; ++b) {
       const double angle = std::numbers::pi * static_cast<double>(b) / static_cast<double>(kBuckets);
-      bucket_start_[r * (kBuckets + 1) + b] =
-          static_cast<int>(std::lower_bound(begin, end, angle) - sorted_direction.begin());
+      while (k < end && entries[static_cast<std::size_t>(k)].direction < angle) ++k;
+      bucket_start_[r * (kBuckets + 1) + b] = k;
     }
-    bucket_start_[r * (kBuckets + 1) + kBuckets] = ring_start_[r + 1];
+    bucket_start_[r * (kBuckets + 1) + kBuckets] = end;
   }
 }
 
