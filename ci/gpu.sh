@@ -204,6 +204,10 @@ elapsed=$(( $(date +%s) - start ))
 # or per cell, docs/ARCHITECTURE.md); CI proves them on those, this run on NVIDIA's compilers too.
 # PORTA_GPU_CPU_PATHS=off leaves it out.
 cpu_paths_status=0
+case "${PORTA_GPU_CPU_PATHS:-on}" in
+  on | off) ;;
+  *) say "PORTA_GPU_CPU_PATHS must be on or off, got '${PORTA_GPU_CPU_PATHS}'"; exit 1 ;;
+esac
 if [ "${PORTA_GPU_CPU_PATHS:-on}" = on ]; then
   say "again with the kernels of CPU devices (PORTA_VULKAN_WORK_GROUPS=off PORTA_OPENCL_WORK_GROUPS=off); log: $out_dir/equivalence-cpu-paths.log"
   PORTA_EQUIVALENCE_SUMMARY="$out_dir/summary-cpu-paths.md" PORTA_VULKAN_WORK_GROUPS=off PORTA_OPENCL_WORK_GROUPS=off \
