@@ -40,6 +40,10 @@ machine="$out_dir/machine.txt"
 : >"$machine"
 
 say() { echo "gpu.sh: $*"; }
+case "${PORTA_GPU_CPU_PATHS:-on}" in
+  on | off) ;;
+  *) say "PORTA_GPU_CPU_PATHS must be on or off, got '${PORTA_GPU_CPU_PATHS}'"; exit 1 ;;
+esac
 record() { echo "$*" | tee -a "$machine"; }
 have() { command -v "$1" >/dev/null 2>&1; }
 
@@ -204,10 +208,6 @@ elapsed=$(( $(date +%s) - start ))
 # or per cell, docs/ARCHITECTURE.md); CI proves them on those, this run on NVIDIA's compilers too.
 # PORTA_GPU_CPU_PATHS=off leaves it out.
 cpu_paths_status=0
-case "${PORTA_GPU_CPU_PATHS:-on}" in
-  on | off) ;;
-  *) say "PORTA_GPU_CPU_PATHS must be on or off, got '${PORTA_GPU_CPU_PATHS}'"; exit 1 ;;
-esac
 if [ "${PORTA_GPU_CPU_PATHS:-on}" = on ]; then
   say "again with the kernels of CPU devices (PORTA_VULKAN_WORK_GROUPS=off PORTA_OPENCL_WORK_GROUPS=off); log: $out_dir/equivalence-cpu-paths.log"
   PORTA_EQUIVALENCE_SUMMARY="$out_dir/summary-cpu-paths.md" PORTA_VULKAN_WORK_GROUPS=off PORTA_OPENCL_WORK_GROUPS=off \
