@@ -1,4 +1,4 @@
-# ci/gpu-slam.sh refuses a bad setting before it builds anything (label cli): each of its numeric
+# ci/gpu-slam.sh and ci/gpu.sh refuse a bad setting before they build anything (label cli): each of its numeric
 # settings, given a word, exits 2 naming the setting. The GPU run itself needs a GPU machine.
 find_program(PORTA_BASH bash)
 if(NOT PORTA_BASH)
@@ -11,3 +11,11 @@ foreach(setting PORTA_SLAM_FRAMES PORTA_SLAM_REPEATS PORTA_SLAM_RATE_FRAMES PORT
   set_tests_properties(cli.gpu_slam_refuses_${setting} PROPERTIES LABELS cli TIMEOUT 30
                        PASS_REGULAR_EXPRESSION "gpu-slam.sh: ${setting} must be a whole number, got 'x'")
 endforeach()
+
+# ci/gpu.sh's second pass (the kernels of CPU devices on the GPU's drivers) takes on or off; any
+# other value is refused before anything is configured or built.
+add_test(NAME cli.gpu_equivalence_refuses_PORTA_GPU_CPU_PATHS
+         COMMAND ${CMAKE_COMMAND} -E env PORTA_GPU_CPU_PATHS=maybe ${PORTA_BASH} ${CMAKE_SOURCE_DIR}/ci/gpu.sh
+                 ${porta_cli_dir}/gpu_equivalence_refused)
+set_tests_properties(cli.gpu_equivalence_refuses_PORTA_GPU_CPU_PATHS PROPERTIES LABELS cli TIMEOUT 30
+                     PASS_REGULAR_EXPRESSION "gpu.sh: PORTA_GPU_CPU_PATHS must be on or off, got 'maybe'")
