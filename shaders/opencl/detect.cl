@@ -87,18 +87,7 @@ __kernel void fast_crf(__global const uchar* restrict pyramid, const porta_level
     vstore16(sum, 0, r);
     for (int j = 0; j < 16; ++j) out[x + j] = (lut[b[j]] | lut[d[j]]) ? (ushort)r[j] : (ushort)0;
   }
-  for (; x < x_end; ++x) {
-    const int c = row[x];
-    uint bright = 0, dark = 0;
-    int sum = 0;
-    for (int i = 0; i < 16; ++i) {
-      const int q = row[x + offset[i]];
-      bright |= (uint)(q > c + eps) << i;
-      dark |= (uint)(q < c - eps) << i;
-      sum += abs(q - c);
-    }
-    out[x] = (lut[bright] | lut[dark]) ? (ushort)sum : (ushort)0;
-  }
+  for (; x < x_end; ++x) out[x] = porta_fast_response(row + x, src.pitch, lut, eps);
 }
 
 // §3.4 feature culling (DESIGN.md §3.4): one work-item per cell of every level (global: cells of
