@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "porta/backend.hpp"
+#include "porta/kernel_checks.hpp"
 #include "vulkan/vk_errors.hpp"
 
 namespace porta::vulkan {
@@ -173,6 +174,20 @@ int compute_family(VkPhysicalDevice d) {
   vkGetPhysicalDeviceQueueFamilyProperties(d, &n, families.data());
   for (std::uint32_t i = 0; i < n; ++i)
     if ((families[i].queueFlags & VK_QUEUE_COMPUTE_BIT) != 0 && families[i].queueCount > 0)
+      return static_cast<int>(i);
+  return -1;
+}
+
+/// A queue family that copies and does nothing else (a GPU's copy engines), or -1.
+int transfer_only_family(VkPhysicalDevice d) {
+  std::uint32_t n = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(d, &n, nullptr);
+  std::vector<VkQueueFamilyProperties> families(n);
+  vkGetPhysicalDeviceQueueFamilyProperties(d, &n, families.data());
+  constexpr VkQueueFlags kOther = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+  for (std::uint32_t i = 0; i < n; ++i)
+    if ((families[i].queueFlags & VK_QUEUE_TRANSFER_BIT) != 0 && (families[i].queueFlags & kOther) == 0 &&
+        families[i].queueCount > 0)
       return static_cast<int>(i);
   return -1;
 }
@@ -374,10 +389,26 @@ Context::Context(const BackendOptions& options) {
     }
     queue_count = std::clamp<std::uint32_t>(queue_count, 1, std::max(family_props[queue_family_].queueCount, 1u));
     const std::vector<float> priorities(queue_count, 1.0f);
-    auto queue_info = make_info<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
-    queue_info.queueFamilyIndex = queue_family_;
-    queue_info.queueCount = queue_count;
-    queue_info.pQueuePriorities = priorities.data();
+    VkDeviceQueueCreateInfo queue_infos[2];
+    queue_infos[0] = make_info<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
+    queue_infos[0].queueFamilyIndex = queue_family_;
+    queue_infos[0].queueCount = queue_count;
+    queue_infos[0].pQueuePriorities = priorities.data();
+    // Uploads on the copy engines, beside the kernels (Context::transfer_queue()).
+    const int copy_family = transfer_only_family(physical_);
+    const bool transfer_queue = checks::env_switch("vulkan", "PORTA_VULKAN_TRANSFER_QUEUE",
+                                                   copy_family >= 0 && !cpu_device());
+    std::uint32_t queue_families = 1;
+    if (transfer_queue && copy_family >= 0) {
+      transfer_family_ = static_cast<std::uint32_t>(copy_family);
+      queue_infos[1] = make_info<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
+      queue_infos[1].queueFamilyIndex = transfer_family_;
+      queue_infos[1].queueCount = 1;
+      queue_infos[1].pQueuePriorities = priorities.data();
+      queue_families = 2;
+    } else {
+      transfer_family_ = queue_family_;
+    }
 
     auto s8 = make_info<VkPhysicalDevice8BitStorageFeatures>(
         VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_8BIT_STORAGE_FEATURES);
@@ -396,13 +427,18 @@ Context::Context(const BackendOptions& options) {
 
     auto info = make_info<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
     info.pNext = &features;
-    info.queueCreateInfoCount = 1;
-    info.pQueueCreateInfos = &queue_info;
+    info.queueCreateInfoCount = queue_families;
+    info.pQueueCreateInfos = queue_infos;
     info.enabledExtensionCount = static_cast<std::uint32_t>(extensions.size());
     info.ppEnabledExtensionNames = extensions.data();
     check(vkCreateDevice(physical_, &info, nullptr, &device_), "vkCreateDevice", entry_.label());
     queues_.resize(queue_count);
     for (std::uint32_t i = 0; i < queue_count; ++i) vkGetDeviceQueue(device_, queue_family_, i, &queues_[i]);
+    if (queue_families == 2) {
+      vkGetDeviceQueue(device_, transfer_family_, 0, &transfer_queue_);
+    } else if (transfer_queue) {
+      transfer_queue_ = queues_[0];
+    }
     throw_validation_errors("device creation");
   } catch (...) {
     if (device_ != VK_NULL_HANDLE) vkDestroyDevice(device_, nullptr);

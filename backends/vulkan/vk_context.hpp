@@ -106,6 +106,18 @@ class Context {
   /// The device's compute queues (at least one, at most kMaxDeviceQueues; one family).
   const std::vector<VkQueue>& queues() const { return queues_; }
   std::uint32_t queue_family() const { return queue_family_; }
+  /// The queue upload_async() copies on, beside the compute queues, or VK_NULL_HANDLE (then the
+  /// copies are commands of the compute batches). By default a queue of a transfer-only family
+  /// (a GPU's copy engines) where the device has one; $PORTA_VULKAN_TRANSFER_QUEUE=off never,
+  /// =on always: where no such family exists, the first compute queue (separate submissions; for
+  /// tests).
+  VkQueue transfer_queue() const { return transfer_queue_; }
+  std::uint32_t transfer_family() const { return transfer_family_; }
+  /// The transfer queue is of another family than the compute queues: buffers are then shared by
+  /// both families (VK_SHARING_MODE_CONCURRENT).
+  bool separate_transfer_family() const {
+    return transfer_queue_ != VK_NULL_HANDLE && transfer_family_ != queue_family_;
+  }
   const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
   /// The device is a CPU (lavapipe): kernels with a workgroup per item cost more than they save
   /// there. $PORTA_VULKAN_WORK_GROUPS=on or off overrides (work_groups()).
@@ -136,6 +148,8 @@ class Context {
   VkDevice device_ = VK_NULL_HANDLE;
   std::vector<VkQueue> queues_;
   std::uint32_t queue_family_ = 0;
+  VkQueue transfer_queue_ = VK_NULL_HANDLE;
+  std::uint32_t transfer_family_ = 0;
   VkPhysicalDeviceProperties properties_{};
   VkPhysicalDeviceMemoryProperties memory_{};
   DeviceEntry entry_;

@@ -54,13 +54,20 @@ Runtime::Runtime(const BackendOptions& options) : ctx_(std::make_unique<Context>
   VkCommandPool pool = VK_NULL_HANDLE;
   check(vkCreateCommandPool(dev, &pool_info, nullptr, &pool), "vkCreateCommandPool");
   command_pool_ = Unique<VkCommandPool>(dev, pool, vkDestroyCommandPool);
+  if (ctx_->separate_transfer_family()) {
+    pool_info.queueFamilyIndex = ctx_->transfer_family();
+    check(vkCreateCommandPool(dev, &pool_info, nullptr, &pool), "vkCreateCommandPool", "the transfer queue");
+    transfer_pool_ = Unique<VkCommandPool>(dev, pool, vkDestroyCommandPool);
+  }
   create_streams(options.profile_kernels);
 }
 
 Runtime::~Runtime() {
   // Running batches finish first; pending ones are dropped (they never ran).
-  if (ctx_)
+  if (ctx_) {
     for (VkQueue q : ctx_->queues()) vkQueueWaitIdle(q);
+    if (ctx_->transfer_queue() != VK_NULL_HANDLE) vkQueueWaitIdle(ctx_->transfer_queue());
+  }
 }
 
 // ---- Memory --------------------------------------------------------------------------------------
@@ -74,7 +81,16 @@ DeviceMemory Runtime::make_memory(VkDeviceSize bytes, Place place) {
   info.size = m.size;
   info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
                VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  // Shared by the compute and the transfer family where they differ: uploads on the copy engines
+  // write the kernels' buffers and read the host buffers with no ownership transfer.
+  const std::uint32_t families[2] = {ctx_->queue_family(), ctx_->transfer_family()};
+  if (ctx_->separate_transfer_family()) {
+    info.sharingMode = VK_SHARING_MODE_CONCURRENT;
+    info.queueFamilyIndexCount = 2;
+    info.pQueueFamilyIndices = families;
+  } else {
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  }
   const std::string what = std::to_string(bytes) + " bytes";
   VkBuffer buffer = VK_NULL_HANDLE;
   check(vkCreateBuffer(dev, &info, nullptr, &buffer), "vkCreateBuffer", what);
@@ -217,7 +233,65 @@ void Runtime::upload_async(Buffer& dst, std::size_t dst_offset, const HostBuffer
   if (bytes == 0) return;
   Stream& s = current();
   begin_record(s);
+  if (upload_on_transfer_queue(s, from, src_offset, to, dst_offset, bytes)) return;
   record_copy(s, from, src_offset, to, dst_offset, bytes);
+}
+
+bool Runtime::upload_on_transfer_queue(Stream& s, const DeviceMemory& from, VkDeviceSize src_offset,
+                                       const DeviceMemory& to, VkDeviceSize dst_offset, VkDeviceSize bytes) {
+  // In the stream's order the copy would wait for the work before it, and that work for the copies
+  // of the frames merged with it: on the copy engines, a frame's input arrives while the kernels
+  // of the frames before it run. Only where no batch uses either buffer can it leave that order.
+  const VkQueue queue = ctx_->transfer_queue();
+  if (queue == VK_NULL_HANDLE || in_use(from.id) || in_use(to.id)) return false;
+  const VkDevice dev = ctx_->device();
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  if (!free_transfer_cmds_.empty()) {
+    cmd = free_transfer_cmds_.back();
+    free_transfer_cmds_.pop_back();
+  } else {
+    auto info = make_info<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+    info.commandPool = transfer_pool_ ? transfer_pool_.get() : command_pool_.get();
+    info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    info.commandBufferCount = 1;
+    check(vkAllocateCommandBuffers(dev, &info, &cmd), "vkAllocateCommandBuffers", "the transfer queue");
+  }
+  try {
+    auto begin = make_info<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer", "the transfer queue");
+    const VkBufferCopy region{src_offset, dst_offset, bytes};
+    vkCmdCopyBuffer(cmd, from.buffer.get(), to.buffer.get(), 1, &region);
+    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer", "the transfer queue");
+    // The semaphore makes the copy's writes visible to the batch that waits for it and to every
+    // later command of the compute queue.
+    const VkSemaphore done = take_semaphore();
+    auto submit = make_info<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cmd;
+    submit.signalSemaphoreCount = 1;
+    submit.pSignalSemaphores = &done;
+    check(vkQueueSubmit(queue, 1, &submit, VK_NULL_HANDLE), "vkQueueSubmit", "the transfer queue");
+    transfers_.emplace_back(done, cmd);
+    s.waits.push_back(done);
+  } catch (...) {
+    free_transfer_cmds_.push_back(cmd);
+    throw;
+  }
+  // Both buffers stay in use until the batch that waits for the copy has run.
+  note_use(s, from.id);
+  note_use(s, to.id);
+  ++stats_.transfer_queue_copies;
+  return true;
+}
+
+void Runtime::recycle_transfers(const std::vector<VkSemaphore>& waited) {
+  for (std::size_t i = transfers_.size(); i-- > 0;) {
+    if (std::find(waited.begin(), waited.end(), transfers_[i].first) == waited.end()) continue;
+    check(vkResetCommandBuffer(transfers_[i].second, 0), "vkResetCommandBuffer", "the transfer queue");
+    free_transfer_cmds_.push_back(transfers_[i].second);
+    transfers_.erase(transfers_.begin() + static_cast<std::ptrdiff_t>(i));
+  }
 }
 
 void Runtime::download_async(const Buffer& src, std::size_t src_offset, HostBuffer& dst, std::size_t dst_offset,

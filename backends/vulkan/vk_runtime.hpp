@@ -271,6 +271,13 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   /// dropped).
   void release_carried(int carrier);
   VkSemaphore take_semaphore();
+  /// upload_async on the transfer queue (Context::transfer_queue()): the copy is submitted there at
+  /// once, and the stream's next batch waits for it. False (nothing done) when it must stay in the
+  /// stream's order instead: no transfer queue, or a pending or running batch uses either buffer.
+  bool upload_on_transfer_queue(Stream& s, const DeviceMemory& from, VkDeviceSize src_offset,
+                                const DeviceMemory& to, VkDeviceSize dst_offset, VkDeviceSize bytes);
+  /// The transfer queue's command buffers that a finished batch's waits covered are free again.
+  void recycle_transfers(const std::vector<VkSemaphore>& waited);
   VkCommandBuffer command_buffer_for(Stream& s);
   void record(const Stream& s, VkCommandBuffer cmd, bool one_time);
   std::vector<std::uint64_t> signature(const Stream& s) const;
@@ -312,6 +319,11 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
 
   // Streams, and what they share.
   Unique<VkCommandPool> command_pool_;
+  // The transfer queue's copies: a pool of its family (when it is not the compute family), the
+  // command buffer of each copy submitted by the semaphore it signals, and free command buffers.
+  Unique<VkCommandPool> transfer_pool_;
+  std::vector<std::pair<VkSemaphore, VkCommandBuffer>> transfers_;
+  std::vector<VkCommandBuffer> free_transfer_cmds_;
   std::vector<Stream> streams_;
   int current_ = 0;
   std::vector<Unique<VkSemaphore>> semaphores_;  // every semaphore made

@@ -405,6 +405,7 @@ void Runtime::complete(Stream& s) {
   const VkDevice dev = ctx_->device();
   wait_for(fence);
   check(vkResetFences(dev, 1, &fence), "vkResetFences");
+  if (!transfers_.empty()) recycle_transfers(s.running_waits);
   free_semaphores_.insert(free_semaphores_.end(), s.running_waits.begin(), s.running_waits.end());
   s.running_waits.clear();
   s.running_ids.clear();

@@ -77,6 +77,7 @@ struct VulkanStats {
   std::uint64_t held_batches = 0;    ///< batches start() held back or merged into a held one while the device was busy
   std::uint64_t commands_recorded = 0;  ///< dispatches, copies and fills in recorded command buffers
   std::uint64_t barriers_recorded = 0;  ///< barriers between them (not counting each batch's first and last)
+  std::uint64_t transfer_queue_copies = 0;  ///< upload_async copies submitted to the transfer queue
 };
 
 class VulkanBackend final : public Backend {

@@ -5,6 +5,7 @@
 // Every test skips, saying why, when this build has no Vulkan backend or the machine no device.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -281,6 +282,95 @@ TEST_F(VulkanBackendTest, Streams_FramesInFlightMergeWhileTheDeviceIsBusy) {
     } else {
       EXPECT_GT(stats.held_batches, 0u);
     }
+  }
+}
+
+// Pinned input on the transfer queue ($PORTA_VULKAN_TRANSFER_QUEUE=on; a GPU's copy engines, on
+// lavapipe the compute queue in submissions of their own): each frame's upload leaves the batch
+// and the batch waits for it; stereo frames in flight, from input images, give the cpu backend's
+// bytes either way, and =off keeps every copy in the batches.
+TEST_F(VulkanBackendTest, Transfers_PinnedInputOnTheTransferQueueGivesTheCpuBytes) {
+  const FrontendSettings settings = small_settings();
+  std::vector<Image> lefts, rights;
+  for (int i = 0; i < 3; ++i) {
+    lefts.push_back(test::textured_image(320, 240, 20 + i));
+    rights.push_back(test::shifted_right(lefts.back(), 3 + i));
+  }
+  auto cpu = BackendRegistry::instance().create("cpu");
+  Frontend reference(*cpu, settings, 320, 240);
+  std::vector<StereoFeatures> expected;
+  for (std::size_t i = 0; i < lefts.size(); ++i)
+    expected.push_back(reference.detect_stereo(lefts[i].view(), rights[i].view()));
+  ASSERT_GT(expected[0].matches.size(), 0u);
+  for (const char* value : {"on", "off"}) {
+    SCOPED_TRACE(std::string("PORTA_VULKAN_TRANSFER_QUEUE=") + value);
+    test::ScopedEnv transfer("PORTA_VULKAN_TRANSFER_QUEUE", value);
+    vulkan::VulkanBackend backend;
+    FrontendOptions options;
+    options.in_flight = 3;
+    Frontend frontend(backend, settings, 320, 240, options);
+    std::vector<InputImage> left_inputs, right_inputs;  // one pair per frame in flight
+    for (int i = 0; i < options.in_flight; ++i) {
+      left_inputs.push_back(frontend.make_input_image());
+      right_inputs.push_back(frontend.make_input_image());
+    }
+    constexpr int kFrames = 9;
+    int collected = 0;
+    for (int frame = 0; frame < kFrames; ++frame) {
+      const std::size_t slot = static_cast<std::size_t>(frame % options.in_flight);
+      const std::size_t image = static_cast<std::size_t>(frame) % lefts.size();
+      if (frame >= options.in_flight) {  // the slot's last frame must be collected before its input changes
+        EXPECT_TRUE(same_stereo(frontend.collect_stereo(), expected[static_cast<std::size_t>(collected) % 3]))
+            << "frame " << collected;
+        ++collected;
+      }
+      left_inputs[slot].assign(lefts[image].view());
+      right_inputs[slot].assign(rights[image].view());
+      frontend.submit_stereo(left_inputs[slot], right_inputs[slot]);
+    }
+    for (; collected < kFrames; ++collected)
+      EXPECT_TRUE(same_stereo(frontend.collect_stereo(), expected[static_cast<std::size_t>(collected) % 3]))
+          << "frame " << collected;
+    if (std::string(value) == "on") {
+      EXPECT_EQ(backend.stats().transfer_queue_copies, 2u * kFrames) << "every input on the transfer queue";
+    } else {
+      EXPECT_EQ(backend.stats().transfer_queue_copies, 0u);
+    }
+  }
+}
+
+// An upload onto a buffer that a command not yet run reads stays in the stream's order (on the
+// transfer queue it would overwrite the buffer first): the download before it sees the first
+// upload's bytes, the one after it the second's.
+TEST_F(VulkanBackendTest, Transfers_AnUploadOntoABufferInUseKeepsTheQueuesOrder) {
+  test::ScopedEnv transfer("PORTA_VULKAN_TRANSFER_QUEUE", "on");
+  vulkan::VulkanBackend backend;
+  constexpr std::size_t kBytes = 4096;
+  auto device = backend.allocate(kBytes);
+  auto first = backend.allocate_host(kBytes), second = backend.allocate_host(kBytes);
+  auto seen_before = backend.allocate_host(kBytes), seen_after = backend.allocate_host(kBytes);
+  std::fill(first->data(), first->data() + kBytes, std::uint8_t{0x11});
+  std::fill(second->data(), second->data() + kBytes, std::uint8_t{0x22});
+  backend.upload_async(*device, 0, *first, 0, kBytes);  // no command uses `device`: transfer queue
+  EXPECT_EQ(backend.stats().transfer_queue_copies, 1u);
+  backend.download_async(*device, 0, *seen_before, 0, kBytes);
+  backend.upload_async(*device, 0, *second, 0, kBytes);  // the download above reads it: in order
+  EXPECT_EQ(backend.stats().transfer_queue_copies, 1u);
+  backend.download_async(*device, 0, *seen_after, 0, kBytes);
+  backend.finish_queue(0);
+  EXPECT_EQ(std::vector<std::uint8_t>(seen_before->data(), seen_before->data() + kBytes),
+            std::vector<std::uint8_t>(kBytes, 0x11));
+  EXPECT_EQ(std::vector<std::uint8_t>(seen_after->data(), seen_after->data() + kBytes),
+            std::vector<std::uint8_t>(kBytes, 0x22));
+}
+
+TEST_F(VulkanBackendTest, Transfers_ABadSettingIsRefusedByName) {
+  test::ScopedEnv transfer("PORTA_VULKAN_TRANSFER_QUEUE", "sometimes");
+  try {
+    vulkan::VulkanBackend backend;
+    FAIL() << "PORTA_VULKAN_TRANSFER_QUEUE=sometimes was accepted";
+  } catch (const BackendError& e) {
+    EXPECT_NE(std::string(e.what()).find("PORTA_VULKAN_TRANSFER_QUEUE"), std::string::npos) << e.what();
   }
 }
 
