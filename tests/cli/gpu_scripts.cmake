@@ -1,5 +1,6 @@
-# ci/gpu-slam.sh and ci/gpu.sh refuse a bad setting before they build anything (label cli): each of its numeric
-# settings, given a word, exits 2 naming the setting. The GPU run itself needs a GPU machine.
+# ci/gpu-slam.sh and ci/gpu.sh refuse a bad setting before they build anything (label cli):
+# each numeric setting of gpu-slam.sh, given a word, exits 2 naming the setting. The GPU runs
+# themselves need a GPU machine.
 find_program(PORTA_BASH bash)
 if(NOT PORTA_BASH)
   return()
