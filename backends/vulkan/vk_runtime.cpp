@@ -158,6 +158,12 @@ bool Runtime::in_use(std::uint64_t id) const {
   });
 }
 
+bool Runtime::written(std::uint64_t id) const {
+  return std::any_of(streams_.begin(), streams_.end(), [id](const Stream& s) {
+    return contains(s.pending_writes, id) || contains(s.running_writes, id);
+  });
+}
+
 VkDeviceSize Runtime::reserve_staging(Stream& s, VkDeviceSize bytes) {
   const VkDeviceSize need = align_up(std::max<VkDeviceSize>(bytes, 1), 16);
   if (s.staging_used + need > s.staging.size) {
@@ -241,9 +247,11 @@ bool Runtime::upload_on_transfer_queue(Stream& s, const DeviceMemory& from, VkDe
                                        const DeviceMemory& to, VkDeviceSize dst_offset, VkDeviceSize bytes) {
   // In the stream's order the copy would wait for the work before it, and that work for the copies
   // of the frames merged with it: on the copy engines, a frame's input arrives while the kernels
-  // of the frames before it run. Only where no batch uses either buffer can it leave that order.
+  // of the frames before it run. It can leave that order only where no batch uses the destination
+  // and none writes the source (batches that only read the source, as the uploads of earlier
+  // frames from the same input image do, read it beside the copy).
   const VkQueue queue = ctx_->transfer_queue();
-  if (queue == VK_NULL_HANDLE || in_use(from.id) || in_use(to.id)) return false;
+  if (queue == VK_NULL_HANDLE || written(from.id) || in_use(to.id)) return false;
   const VkDevice dev = ctx_->device();
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   if (!free_transfer_cmds_.empty()) {
@@ -281,6 +289,7 @@ bool Runtime::upload_on_transfer_queue(Stream& s, const DeviceMemory& from, VkDe
   // Both buffers stay in use until the batch that waits for the copy has run.
   note_use(s, from.id);
   note_use(s, to.id);
+  note_write(s, to.id);
   ++stats_.transfer_queue_copies;
   return true;
 }

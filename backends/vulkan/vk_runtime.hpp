@@ -210,6 +210,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     int carrier = -1;  ///< the stream whose pending or running batch holds this one's last work
     std::vector<Command> pending;
     std::vector<std::uint64_t> pending_ids;
+    std::vector<std::uint64_t> pending_writes;  ///< the ids of pending_ids that a command writes
     bool pending_dispatch = false;
     std::vector<VkSemaphore> waits;  ///< the next submit waits for these (stream_wait)
     // Parameter buffer: a per-batch bump allocator over host-visible memory.
@@ -227,6 +228,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
     bool running = false;
     std::uint64_t submitted = 0;  ///< the running batch's place in submission order
     std::vector<std::uint64_t> running_ids;
+    std::vector<std::uint64_t> running_writes;
     std::vector<const Kernel*> running_timed;   ///< its timed dispatches, in order
     std::vector<VkSemaphore> running_waits;     ///< free again once it has run
   };
@@ -239,6 +241,8 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   const VulkanHostBuffer& vk_host(const HostBuffer& b, const char* call) const;
   /// True while a pending or running batch of any stream uses the memory.
   bool in_use(std::uint64_t id) const;
+  /// True while a command of a pending or running batch of any stream writes the memory.
+  bool written(std::uint64_t id) const;
   void destroy_now(DeviceMemory memory);
   void collect_garbage();
 
@@ -248,6 +252,7 @@ class Runtime : public std::enable_shared_from_this<Runtime> {
   /// Before anything is recorded into `s`: waits for its running batch when nothing is pending.
   void begin_record(Stream& s);
   void note_use(Stream& s, std::uint64_t id);
+  void note_write(Stream& s, std::uint64_t id);
   void push_command(Stream& s, Command c);
   /// Submits the pending batch (and waits) with `signal` signalled when it has run.
   void submit(Stream& s, VkSemaphore signal);

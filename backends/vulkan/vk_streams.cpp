@@ -126,8 +126,13 @@ void Runtime::note_use(Stream& s, std::uint64_t id) {
   if (!contains(s.pending_ids, id)) s.pending_ids.push_back(id);
 }
 
+void Runtime::note_write(Stream& s, std::uint64_t id) {
+  if (!contains(s.pending_writes, id)) s.pending_writes.push_back(id);
+}
+
 void Runtime::push_command(Stream& s, Command c) {
   for (const std::uint64_t id : c.ids) note_use(s, id);
+  for (const std::uint64_t id : c.writes) note_write(s, id);
   if (c.kind == Command::Kind::kDispatch) s.pending_dispatch = true;
   // A barrier only where the command touches a buffer that a command of the current group (those
   // since the last barrier) writes, or writes one that such a command uses: commands on other
@@ -314,10 +319,12 @@ void Runtime::merge_pending(int into, int from) {
   // Everything recorded later waits for both.
   a.pending = std::move(merged);
   for (const std::uint64_t id : b.pending_ids) note_use(a, id);
+  for (const std::uint64_t id : b.pending_writes) note_write(a, id);
   a.pending_dispatch = a.pending_dispatch || b.pending_dispatch;
   a.waits.insert(a.waits.end(), b.waits.begin(), b.waits.end());
   b.pending.clear();
   b.pending_ids.clear();
+  b.pending_writes.clear();
   b.pending_dispatch = false;
   b.waits.clear();
   // b's staging and parameters stay reserved (b.params_used, b.staging_used) until a's batch has
@@ -343,6 +350,7 @@ void Runtime::drop_pending(Stream& s) {
   release_carried(static_cast<int>(&s - streams_.data()));
   s.pending.clear();
   s.pending_ids.clear();
+  s.pending_writes.clear();
   s.pending_dispatch = false;
   s.waits.clear();  // left signalled, never reused
   s.params_used = 0;
@@ -373,6 +381,7 @@ void Runtime::submit(Stream& s, VkSemaphore signal) {
   s.running = true;
   s.submitted = ++submit_clock_;
   s.running_ids = std::move(s.pending_ids);
+  s.running_writes = std::move(s.pending_writes);
   s.running_timed.clear();
   if (s.timestamps) {
     for (const Command& c : s.pending)
@@ -382,6 +391,7 @@ void Runtime::submit(Stream& s, VkSemaphore signal) {
   s.running_waits = std::move(s.waits);
   s.waits.clear();
   s.pending_ids.clear();
+  s.pending_writes.clear();
   s.pending.clear();
   s.pending_dispatch = false;
   s.params_used = 0;
@@ -409,6 +419,7 @@ void Runtime::complete(Stream& s) {
   free_semaphores_.insert(free_semaphores_.end(), s.running_waits.begin(), s.running_waits.end());
   s.running_waits.clear();
   s.running_ids.clear();
+  s.running_writes.clear();
   release_carried(static_cast<int>(&s - streams_.data()));
   if (s.timestamps) read_timestamps(s);
   collect_garbage();

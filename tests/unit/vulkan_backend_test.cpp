@@ -368,6 +368,37 @@ TEST_F(VulkanBackendTest, Transfers_AnUploadOntoABufferInUseKeepsTheQueuesOrder)
             std::vector<std::uint8_t>(kBytes, 0x22));
 }
 
+// The source of an upload only matters while a batch writes it: uploads of one input image into
+// several frames' buffers (batches that only read it) go on the transfer queue side by side, but
+// an upload from a host buffer that a pending download fills stays in order, and sees its bytes.
+TEST_F(VulkanBackendTest, Transfers_AnUploadFromAHostBufferBeingFilledKeepsTheQueuesOrder) {
+  test::ScopedEnv transfer("PORTA_VULKAN_TRANSFER_QUEUE", "on");
+  vulkan::VulkanBackend backend;
+  constexpr std::size_t kBytes = 4096;
+  auto a = backend.allocate(kBytes), b = backend.allocate(kBytes), c = backend.allocate(kBytes);
+  auto image = backend.allocate_host(kBytes), other = backend.allocate_host(kBytes);
+  auto seen = backend.allocate_host(kBytes);
+  backend.synchronize();  // the buffers' zero-fill has run: no batch uses them
+  std::fill(image->data(), image->data() + kBytes, std::uint8_t{0x11});
+  std::fill(other->data(), other->data() + kBytes, std::uint8_t{0x33});
+  backend.upload_async(*a, 0, *image, 0, kBytes);
+  backend.upload_async(*b, 0, *image, 0, kBytes);  // `image` is only read by the batch: transfer queue too
+  EXPECT_EQ(backend.stats().transfer_queue_copies, 2u);
+  backend.finish_queue(0);
+  backend.upload_async(*a, 0, *other, 0, kBytes);
+  EXPECT_EQ(backend.stats().transfer_queue_copies, 3u);
+  backend.download_async(*a, 0, *image, 0, kBytes);  // the batch now writes `image` (0x33)
+  backend.upload_async(*c, 0, *image, 0, kBytes);    // so this copy waits for it, in the batch
+  EXPECT_EQ(backend.stats().transfer_queue_copies, 3u);
+  backend.download_async(*b, 0, *seen, 0, kBytes);
+  backend.finish_queue(0);
+  EXPECT_EQ(std::vector<std::uint8_t>(seen->data(), seen->data() + kBytes), std::vector<std::uint8_t>(kBytes, 0x11));
+  backend.download_async(*c, 0, *seen, 0, kBytes);
+  backend.finish_queue(0);
+  EXPECT_EQ(std::vector<std::uint8_t>(seen->data(), seen->data() + kBytes), std::vector<std::uint8_t>(kBytes, 0x33))
+      << "the upload read the host buffer before the download had filled it";
+}
+
 TEST_F(VulkanBackendTest, Transfers_ABadSettingIsRefusedByName) {
   test::ScopedEnv transfer("PORTA_VULKAN_TRANSFER_QUEUE", "sometimes");
   try {
