@@ -25,8 +25,12 @@
 # PORTA_PROFILE_BUILD_DIR (default build-gpu-bench, shared with ci/gpu-bench.sh), PORTA_PROFILE_CELLS
 # (names of the cells to run, e.g. "320x240-1 752x480-8"; default all), PORTA_PROFILE_BACKENDS
 # (default: every backend available), PORTA_PROFILE_VARIANTS (which of the runs beside the default
-# to make: "one-queue fused-pyramid unfused-detect", the default, or a subset; "none" for none).
-# The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...) pass through.
+# to make: "one-queue fused-pyramid unfused-detect", the default, or a subset; "none" for none;
+# also, on vulkan only, frame times with its copies on the transfer queue "transfer-queue"
+# (PORTA_VULKAN_TRANSFER_QUEUE=on: frames-*-transfer-queue.txt), that and no held batches "unheld"
+# (PORTA_VULKAN_HOLD_BATCHES=off), that and its streams on 4 device queues "device-queues"
+# (PORTA_VULKAN_DEVICE_QUEUES=4), and "repeat": the default frame times once more, last, to see
+# the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...) pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 
@@ -54,8 +58,9 @@ done
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect none"; exit 1 ;;
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues repeat none"
+     exit 1 ;;
   esac
 done
 
@@ -106,6 +111,22 @@ for cell in "${cells[@]}"; do
       --profile-kernels --json "$out_dir/kernels-$name-unfused-detect.json" \
       >"$out_dir/kernels-$name-unfused-detect.txt" 2>>"$out_dir/bench.log" || status=1
   fi
+  # vulkan's queue settings, frame times only: "variant environment...".
+  for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
+    "unheld PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off" \
+    "device-queues PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off PORTA_VULKAN_DEVICE_QUEUES=4"; do
+    read -r v settings <<<"$setting"
+    { [[ ",$all," == *",vulkan,"* ]] && variant "$v"; } || continue
+    say "cell $name: vulkan with $settings"
+    # shellcheck disable=SC2086  # the settings are words of NAME=VALUE
+    env $settings "$binary" bench --backend vulkan "${common[@]}" "${bench_args[@]}" \
+      --json "$out_dir/frames-$name-$v.json" >"$out_dir/frames-$name-$v.txt" 2>>"$out_dir/bench.log" || status=1
+  done
+  if variant repeat; then
+    say "cell $name: frame times on $all again"
+    "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name-repeat.json" \
+      >"$out_dir/frames-$name-repeat.txt" 2>>"$out_dir/bench.log" || status=1
+  fi
 done
 
 # The host's cost of OpenCL calls on this device (porta_cl_enqueue_bench): what bounds opencl with
@@ -142,6 +163,11 @@ fi
     echo "detection in four kernels (PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
+    for v in transfer-queue unheld device-queues repeat; do
+      [ -f "$out_dir/frames-$name-$v.txt" ] || continue
+      echo "$v:"
+      grep -E '^(cpu|cuda|vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
+    done
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then
