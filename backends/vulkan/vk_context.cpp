@@ -394,10 +394,11 @@ Context::Context(const BackendOptions& options) {
     queue_infos[0].queueFamilyIndex = queue_family_;
     queue_infos[0].queueCount = queue_count;
     queue_infos[0].pQueuePriorities = priorities.data();
-    // Uploads on the copy engines, beside the kernels (Context::transfer_queue()): off by default
-    // until measured on a GPU (the bytes are the suite's, on lavapipe with =on).
+    // Uploads on the copy engines, beside the kernels (Context::transfer_queue()), by default where
+    // the device has them: with frames in flight on an H100 they took 7-27 % off vulkan's frame
+    // (docs/BENCHMARKS.md); elsewhere only when asked for (lavapipe: the tests' path).
     const int copy_family = transfer_only_family(physical_);
-    const bool transfer_queue = checks::env_switch("vulkan", "PORTA_VULKAN_TRANSFER_QUEUE", false);
+    const bool transfer_queue = checks::env_switch("vulkan", "PORTA_VULKAN_TRANSFER_QUEUE", copy_family >= 0);
     std::uint32_t queue_families = 1;
     if (transfer_queue && copy_family >= 0) {
       transfer_family_ = static_cast<std::uint32_t>(copy_family);

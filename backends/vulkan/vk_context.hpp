@@ -107,9 +107,10 @@ class Context {
   const std::vector<VkQueue>& queues() const { return queues_; }
   std::uint32_t queue_family() const { return queue_family_; }
   /// The queue upload_async() copies on, beside the compute queues, or VK_NULL_HANDLE (then the
-  /// copies are commands of the compute batches, the default). $PORTA_VULKAN_TRANSFER_QUEUE=on: a
-  /// queue of a transfer-only family (a GPU's copy engines) where the device has one, else the
-  /// first compute queue (separate submissions; how the tests cover it on lavapipe).
+  /// copies are commands of the compute batches). By default a queue of a transfer-only family (a
+  /// GPU's copy engines) where the device has one, else none; $PORTA_VULKAN_TRANSFER_QUEUE=off:
+  /// none; =on: also where the device has no such family, the first compute queue (separate
+  /// submissions; how the tests cover it on lavapipe).
   VkQueue transfer_queue() const { return transfer_queue_; }
   std::uint32_t transfer_family() const { return transfer_family_; }
   /// The transfer queue is of another family than the compute queues: buffers are then shared by

@@ -108,6 +108,8 @@ VulkanStats VulkanBackend::stats() const { return runtime_->stats(); }
 
 bool VulkanBackend::validation_enabled() const { return runtime_->context().validation(); }
 
+bool VulkanBackend::uploads_on_copy_engines() const { return runtime_->context().separate_transfer_family(); }
+
 Buffer& VulkanBackend::scratch(const std::string& name, std::size_t bytes) {
   auto& slot = scratch_[{runtime_->current_stream(), name}];
   if (!slot || slot->size_bytes() < bytes) slot = allocate(bytes);

@@ -117,6 +117,9 @@ class VulkanBackend final : public Backend {
   VulkanStats stats() const;
   /// True when the Khronos validation layer is active.
   bool validation_enabled() const;
+  /// True when upload_async's copies may run on a queue of a transfer-only family (a GPU's copy
+  /// engines) beside the kernels: the default where the device has one.
+  bool uploads_on_copy_engines() const;
 
   // ---- for the kernel files ----
   Runtime& rt() { return *runtime_; }

@@ -399,6 +399,29 @@ TEST_F(VulkanBackendTest, Transfers_AnUploadFromAHostBufferBeingFilledKeepsTheQu
       << "the upload read the host buffer before the download had filled it";
 }
 
+// By default the uploads go on the copy engines where the device has a transfer-only queue family
+// (GPUs), and stay in the compute batches where it has none (lavapipe, whose "=on" path the tests
+// above take); =off keeps them in the batches everywhere.
+TEST_F(VulkanBackendTest, Transfers_ByDefaultOnTheCopyEnginesWhereTheDeviceHasThem) {
+  const auto copies = [](vulkan::VulkanBackend& backend) {
+    auto device = backend.allocate(256);
+    auto host = backend.allocate_host(256);
+    backend.synchronize();
+    backend.upload_async(*device, 0, *host, 0, 256);
+    backend.finish_queue(0);
+    return backend.stats().transfer_queue_copies;
+  };
+  {
+    test::ScopedEnv unset("PORTA_VULKAN_TRANSFER_QUEUE", "");  // empty: as if unset
+    vulkan::VulkanBackend backend;
+    EXPECT_EQ(copies(backend), backend.uploads_on_copy_engines() ? 1u : 0u);
+  }
+  test::ScopedEnv off("PORTA_VULKAN_TRANSFER_QUEUE", "off");
+  vulkan::VulkanBackend backend;
+  EXPECT_FALSE(backend.uploads_on_copy_engines());
+  EXPECT_EQ(copies(backend), 0u);
+}
+
 TEST_F(VulkanBackendTest, Transfers_ABadSettingIsRefusedByName) {
   test::ScopedEnv transfer("PORTA_VULKAN_TRANSFER_QUEUE", "sometimes");
   try {
