@@ -395,7 +395,7 @@ Context::Context(const BackendOptions& options) {
     queue_infos[0].queueCount = queue_count;
     queue_infos[0].pQueuePriorities = priorities.data();
     // Uploads on the copy engines, beside the kernels (Context::transfer_queue()), by default where
-    // the device has them: with frames in flight on an H100 they took 7-27 % off vulkan's frame
+    // the device has them: with frames in flight on an H100 they took 4-23 % off vulkan's frame
     // (docs/BENCHMARKS.md); elsewhere only when asked for (lavapipe: the tests' path).
     const int copy_family = transfer_only_family(physical_);
     const bool transfer_queue = checks::env_switch("vulkan", "PORTA_VULKAN_TRANSFER_QUEUE", copy_family >= 0);
