@@ -29,8 +29,10 @@
 # also, on vulkan only, frame times with its copies on the transfer queue "transfer-queue"
 # (PORTA_VULKAN_TRANSFER_QUEUE=on: frames-*-transfer-queue.txt), that and no held batches "unheld"
 # (PORTA_VULKAN_HOLD_BATCHES=off), that and its streams on 4 device queues "device-queues"
-# (PORTA_VULKAN_DEVICE_QUEUES=4), and "repeat": the default frame times once more, last, to see
-# the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...) pass through.
+# (PORTA_VULKAN_DEVICE_QUEUES=4), the transfer queue with a frame held only while 2 batches are
+# still to run "hold-2" (PORTA_VULKAN_HOLD_BATCHES=2), and "repeat": the default frame times once
+# more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
+# pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 
@@ -58,8 +60,8 @@ done
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | repeat | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues repeat none"
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 repeat none"
      exit 1 ;;
   esac
 done
@@ -114,7 +116,8 @@ for cell in "${cells[@]}"; do
   # vulkan's queue settings, frame times only: "variant environment...".
   for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
     "unheld PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off" \
-    "device-queues PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off PORTA_VULKAN_DEVICE_QUEUES=4"; do
+    "device-queues PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off PORTA_VULKAN_DEVICE_QUEUES=4" \
+    "hold-2 PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=2"; do
     read -r v settings <<<"$setting"
     { [[ ",$all," == *",vulkan,"* ]] && variant "$v"; } || continue
     say "cell $name: vulkan with $settings"
@@ -163,7 +166,7 @@ fi
     echo "detection in four kernels (PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
-    for v in transfer-queue unheld device-queues repeat; do
+    for v in transfer-queue unheld device-queues hold-2 repeat; do
       [ -f "$out_dir/frames-$name-$v.txt" ] || continue
       echo "$v:"
       grep -E '^(cpu|cuda|vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
