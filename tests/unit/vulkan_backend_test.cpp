@@ -392,10 +392,11 @@ TEST_F(VulkanBackendTest, Transfers_AnUploadFromAHostBufferBeingFilledKeepsTheQu
   EXPECT_EQ(backend.stats().transfer_queue_copies, 3u);
   backend.download_async(*b, 0, *seen, 0, kBytes);
   backend.finish_queue(0);
-  EXPECT_EQ(std::vector<std::uint8_t>(seen->data(), seen->data() + kBytes), std::vector<std::uint8_t>(kBytes, 0x11));
+  const auto bytes = [&] { return std::vector<std::uint8_t>(seen->data(), seen->data() + kBytes); };
+  EXPECT_EQ(bytes(), std::vector<std::uint8_t>(kBytes, 0x11));
   backend.download_async(*c, 0, *seen, 0, kBytes);
   backend.finish_queue(0);
-  EXPECT_EQ(std::vector<std::uint8_t>(seen->data(), seen->data() + kBytes), std::vector<std::uint8_t>(kBytes, 0x33))
+  EXPECT_EQ(bytes(), std::vector<std::uint8_t>(kBytes, 0x33))
       << "the upload read the host buffer before the download had filled it";
 }
 
