@@ -44,6 +44,27 @@ say() { echo "gpu-kernel-profile.sh: $*"; }
 # shellcheck source=ci/gpu-common.sh
 source ci/gpu-common.sh
 
+# The settings, checked before anything is built.
+case "$frames" in '' | *[!0-9]* | 0) say "PORTA_PROFILE_FRAMES must be a whole number of frames, got '$frames'"; exit 1 ;; esac
+variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
+variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
+for v in $variants; do
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 repeat none"
+     exit 1 ;;
+  esac
+done
+# name: resolution levels modes
+cells=("1242x375-8:1242x375 8 stereo,extract" "752x480-8:752x480 8 detect" "320x240-1:320x240 1 detect")
+if [ -n "${PORTA_PROFILE_CELLS:-}" ]; then  # e.g. "320x240-1 752x480-8": only those
+  kept=()
+  for cell in "${cells[@]}"; do
+    case " $PORTA_PROFILE_CELLS " in *" ${cell%%:*} "*) kept+=("$cell") ;; esac
+  done
+  [ "${#kept[@]}" -gt 0 ] || { say "PORTA_PROFILE_CELLS='$PORTA_PROFILE_CELLS' names no cell (1242x375-8, 752x480-8, 320x240-1)"; exit 1; }
+  cells=("${kept[@]}")
+fi
+
 gpu_machine_info
 gpu_register_opencl
 gpu_build "$build_dir" portaslam || exit 1
@@ -57,26 +78,7 @@ for b in ${PORTA_PROFILE_BACKENDS:-cpu cuda vulkan opencl}; do
 done
 [ -n "$all" ] || { say "no backend available"; exit 1; }
 
-variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
-variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
-for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | repeat | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 repeat none"
-     exit 1 ;;
-  esac
-done
-
 status=0
-# name: resolution levels modes
-cells=("1242x375-8:1242x375 8 stereo,extract" "752x480-8:752x480 8 detect" "320x240-1:320x240 1 detect")
-if [ -n "${PORTA_PROFILE_CELLS:-}" ]; then  # e.g. "320x240-1 752x480-8": only those
-  kept=()
-  for cell in "${cells[@]}"; do
-    case " $PORTA_PROFILE_CELLS " in *" ${cell%%:*} "*) kept+=("$cell") ;; esac
-  done
-  [ "${#kept[@]}" -gt 0 ] || { say "PORTA_PROFILE_CELLS='$PORTA_PROFILE_CELLS' names no cell (1242x375-8, 752x480-8, 320x240-1)"; exit 1; }
-  cells=("${kept[@]}")
-fi
 for cell in "${cells[@]}"; do
   name="${cell%%:*}"
   read -r size levels modes <<<"${cell#*:}"
