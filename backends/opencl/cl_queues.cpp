@@ -59,7 +59,7 @@ class OpenClHostBuffer final : public HostBuffer {
   std::shared_ptr<ClSubmitter> submitter_;  // null without a submission thread
 };
 
-/// A transfer or fill command (its buffer is retained by ClSubmitter::push).
+/// A transfer or fill command.
 ClCommand transfer(ClCommand::Kind kind, const char* name, cl_mem mem, std::size_t offset, std::size_t bytes,
                    void* host) {
   ClCommand command;
@@ -127,10 +127,7 @@ void OpenClBackend::enqueue(cl_kernel k, const char* kernel_name, const Range& r
 
 void OpenClBackend::enqueue_later(ClCommand&& command, const Range& range) {
   const Geometry g = geometry(range);
-  if (g.global[0] == 0) {
-    for (cl_mem m : command.mem_args) clReleaseMemObject(m);
-    return;
-  }
+  if (g.global[0] == 0) return;
   command.kind = ClCommand::Kind::kernel;
   command.dims = g.dims;
   for (int d = 0; d < 2; ++d) {
@@ -249,7 +246,7 @@ std::unique_ptr<Buffer> OpenClBackend::allocate(std::size_t bytes) {
   cl_int err = CL_SUCCESS;
   cl_mem m = clCreateBuffer(context_, CL_MEM_READ_WRITE, bytes > 0 ? bytes : 1, nullptr, &err);
   check(err, "clCreateBuffer", std::to_string(bytes) + " bytes");
-  auto buffer = std::make_unique<OpenClBuffer>(m, bytes);
+  auto buffer = std::make_unique<OpenClBuffer>(m, bytes, submitter_);
   fill(*buffer, 0, bytes, 0);
   return buffer;
 }

@@ -28,24 +28,12 @@ inline void relax() {
 #endif
 }
 
-void release(const ClCommand& c) {
-  for (cl_mem m : c.mem_args) clReleaseMemObject(m);
-  if (c.mem != nullptr) clReleaseMemObject(c.mem);
-}
-
 }  // namespace
 
 void ClCommand::add_arg(const void* value, std::size_t size) {
   const auto* bytes = static_cast<const unsigned char*>(value);
   arg_bytes.insert(arg_bytes.end(), bytes, bytes + size);
   arg_begin.push_back(static_cast<std::uint32_t>(arg_bytes.size()));
-}
-
-void ClCommand::add_mem_arg(cl_mem m) {
-  check(clRetainMemObject(m), "clRetainMemObject", std::string("argument ") + std::to_string(arg_begin.size() - 1) +
-                                                        " of " + name);
-  mem_args.push_back(m);
-  add_arg(&m, sizeof(m));
 }
 
 void execute(const ClCommand& c) {
@@ -102,13 +90,6 @@ ClSubmitter::~ClSubmitter() {
 }
 
 void ClSubmitter::push(ClCommand&& command) {
-  if (command.mem != nullptr) {
-    if (const cl_int err = clRetainMemObject(command.mem); err != CL_SUCCESS) {
-      release(command);  // the kernel arguments retained so far
-      command.mem = nullptr;
-      check(err, "clRetainMemObject", command.name);
-    }
-  }
   bool wake = false;
   {
     std::lock_guard lock(mutex_);
@@ -144,7 +125,6 @@ void ClSubmitter::run() {
         std::lock_guard lock(mutex_);
         if (!failure_) failure_ = std::current_exception();
       }
-      release(c);
     }
     const std::uint64_t n = batch.size();
     batch.clear();

@@ -4,9 +4,10 @@
 // host's time in every enqueue, ~40 of them per stereo frame: on the worker they overlap the
 // calling thread's own work (copying the next images, the next frame's calls) instead of adding
 // to it. The calls that wait (finish, blocking transfers, mapping) drain the worker first, and an
-// enqueue that failed there is thrown by the next of them (ClSubmitter::drain). Buffers a command
-// names are retained until the worker has enqueued it, so a buffer released meanwhile (a scratch
-// buffer outgrown) lives on until then, as it would in the driver's queue.
+// enqueue that failed there is thrown by the next of them (ClSubmitter::drain). A buffer (device
+// or pinned host memory) drains the worker before it is released, so no command the worker still
+// holds names a released buffer (retaining each command's buffers instead costs two driver calls
+// per argument).
 #pragma once
 
 #include <CL/cl.h>
@@ -34,12 +35,10 @@ struct ClCommand {
   std::size_t global[2] = {1, 1};
   std::size_t local[2] = {1, 1};
   bool has_local = false;
-  /// Argument i: its bytes are arg_bytes[arg_begin[i], arg_begin[i + 1]); mem_args lists the
-  /// cl_mem values among them (retained).
+  /// Argument i: its bytes are arg_bytes[arg_begin[i], arg_begin[i + 1]).
   std::vector<std::uint32_t> arg_begin{0};
   std::vector<unsigned char> arg_bytes;
-  std::vector<cl_mem> mem_args;
-  // write, read, fill: the buffer, its range and the host side (retained: `mem`)
+  // write, read, fill: the buffer, its range and the host side
   cl_mem mem = nullptr;
   std::size_t offset = 0, bytes = 0;
   void* host = nullptr;
@@ -47,9 +46,8 @@ struct ClCommand {
   // wait_for: the queue `queue` waits for
   cl_command_queue other = nullptr;
 
-  /// Appends an argument of `size` bytes; a cl_mem is retained until the command has run.
+  /// Appends an argument of `size` bytes.
   void add_arg(const void* value, std::size_t size);
-  void add_mem_arg(cl_mem m);
 };
 
 class ClSubmitter {
@@ -60,7 +58,7 @@ class ClSubmitter {
   ClSubmitter(const ClSubmitter&) = delete;
   ClSubmitter& operator=(const ClSubmitter&) = delete;
 
-  /// Queues `command` behind the ones before it; retains its buffers.
+  /// Queues `command` behind the ones before it.
   void push(ClCommand&& command);
   /// Returns when every command pushed so far has been handed to the driver; throws the first
   /// failure since the last drain (a BackendError naming the call), after which the rest ran on.

@@ -112,6 +112,7 @@ std::vector<DeviceEntry> enumerate_devices() {
 }
 
 OpenClBuffer::~OpenClBuffer() {
+  if (submitter_) submitter_->drain_quietly();  // no command still to enqueue names it
   if (mem_) clReleaseMemObject(mem_);
 }
 

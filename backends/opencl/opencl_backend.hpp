@@ -40,12 +40,15 @@ std::vector<DeviceEntry> enumerate_devices();
 
 class OpenClBuffer final : public Buffer {
  public:
-  OpenClBuffer(cl_mem mem, std::size_t bytes) : Buffer(bytes), mem_(mem) {}
+  /// `submitter`: the backend's submission thread (null without one), drained before the release.
+  OpenClBuffer(cl_mem mem, std::size_t bytes, std::shared_ptr<ClSubmitter> submitter)
+      : Buffer(bytes), mem_(mem), submitter_(std::move(submitter)) {}
   ~OpenClBuffer() override;
   cl_mem mem() const { return mem_; }
 
  private:
   cl_mem mem_;
+  std::shared_ptr<ClSubmitter> submitter_;
 };
 
 inline cl_mem mem_of(const Buffer& b) { return static_cast<const OpenClBuffer&>(b).mem(); }
@@ -109,6 +112,8 @@ class OpenClBackend final : public Backend {
       ClCommand command;
       command.kernel = k;
       command.name = kernel_name;
+      command.arg_begin.reserve(sizeof...(Args) + 1);
+      command.arg_bytes.reserve((std::size_t{0} + ... + sizeof(Args)));
       (add_arg(command, args), ...);
       enqueue_later(std::move(command), range);
       return;
@@ -160,7 +165,8 @@ class OpenClBackend final : public Backend {
   template <typename T>
   static void add_arg(ClCommand& command, const T& value) {
     if constexpr (std::is_base_of_v<Buffer, T>) {
-      command.add_mem_arg(mem_of(value));
+      const cl_mem m = mem_of(value);
+      command.add_arg(&m, sizeof(m));
     } else {
       static_assert(std::is_trivially_copyable_v<T>);
       command.add_arg(&value, sizeof(T));

@@ -105,7 +105,7 @@ TEST_F(OpenClBackendTest, SubmitThreadKeepsOrderBuffersAndErrors) {
   auto buffer = backend.allocate(kBytes);
   backend.fill(*buffer, 0, kBytes, 0xAB);
   backend.upload_async(*buffer, 0, *host, 0, kBytes / 2);  // after the fill, in queue order
-  // A buffer given to commands and released before the worker reached them: retained until then.
+  // A buffer given to commands and released before the worker reached them: its release waits.
   {
     auto gone = backend.allocate(kBytes);
     backend.fill(*gone, 0, kBytes, 0x11);
