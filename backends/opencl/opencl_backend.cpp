@@ -112,7 +112,6 @@ std::vector<DeviceEntry> enumerate_devices() {
 }
 
 OpenClBuffer::~OpenClBuffer() {
-  if (submitter_) submitter_->drain_quietly();  // no command still to enqueue names it
   if (mem_) clReleaseMemObject(mem_);
 }
 
@@ -151,15 +150,9 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
   // Detection in fewer launches (FAST with culling, PFA with compaction) where the work-group
   // kernels run (GPUs): each launch saved is ~5 us of the host's time on NVIDIA's OpenCL.
   fused_detect_ = checks::env_switch("opencl", "PORTA_OPENCL_FUSED_DETECT", work_groups_);
-  // Enqueues on a thread of their own where the driver's enqueue is dear (GPUs: ~5 us each on
-  // NVIDIA's, ~40 per stereo frame); not while profiling, whose events are read here.
-  if (checks::env_switch("opencl", "PORTA_OPENCL_SUBMIT_THREAD", work_groups_) && !profile_kernels_)
-    submitter_ = std::make_shared<ClSubmitter>();
 }
 
 OpenClBackend::~OpenClBackend() {
-  if (submitter_) submitter_->drain_quietly();  // before the queues are finished and the kernels go
-  submitter_.reset();  // stops the worker unless a pinned host buffer still holds it
   for (cl_command_queue q : queues_)
     if (q) clFinish(q);  // work in flight writes into memory about to go
   for (auto& t : timed_) clReleaseEvent(t.event);

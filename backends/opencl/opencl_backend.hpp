@@ -17,7 +17,6 @@
 #include <utility>
 #include <vector>
 
-#include "opencl/cl_submitter.hpp"
 #include "porta/backend.hpp"
 #include "porta/kernel_checks.hpp"
 #include "porta/kernel_profile.hpp"
@@ -40,15 +39,12 @@ std::vector<DeviceEntry> enumerate_devices();
 
 class OpenClBuffer final : public Buffer {
  public:
-  /// `submitter`: the backend's submission thread (null without one), drained before the release.
-  OpenClBuffer(cl_mem mem, std::size_t bytes, std::shared_ptr<ClSubmitter> submitter)
-      : Buffer(bytes), mem_(mem), submitter_(std::move(submitter)) {}
+  OpenClBuffer(cl_mem mem, std::size_t bytes) : Buffer(bytes), mem_(mem) {}
   ~OpenClBuffer() override;
   cl_mem mem() const { return mem_; }
 
  private:
   cl_mem mem_;
-  std::shared_ptr<ClSubmitter> submitter_;
 };
 
 inline cl_mem mem_of(const Buffer& b) { return static_cast<const OpenClBuffer&>(b).mem(); }
@@ -102,22 +98,10 @@ class OpenClBackend final : public Backend {
   /// literals): later calls find the kernel by their addresses.
   cl_kernel kernel(const char* program, const char* kernel_name);
   /// Sets the arguments in order (a Buffer& passes its cl_mem, anything else by value) and enqueues.
-  /// With the submission thread (submit_thread()) the arguments are copied into a command the
-  /// worker sets and enqueues.
   template <typename... Args>
   void launch(const char* program, const char* kernel_name, const Range& range, const Args&... args) {
     const Clock::time_point start = profile_kernels_ ? Clock::now() : Clock::time_point{};
     cl_kernel k = kernel(program, kernel_name);
-    if (submitter_) {
-      ClCommand command;
-      command.kernel = k;
-      command.name = kernel_name;
-      command.arg_begin.reserve(sizeof...(Args) + 1);
-      command.arg_bytes.reserve((std::size_t{0} + ... + sizeof(Args)));
-      (add_arg(command, args), ...);
-      enqueue_later(std::move(command), range);
-      return;
-    }
     cl_uint index = 0;
     (set_arg(k, kernel_name, index++, args), ...);
     enqueue(k, kernel_name, range, start);
@@ -145,11 +129,6 @@ class OpenClBackend final : public Backend {
   bool fused_pyramid() const { return fused_pyramid_; }
   /// CL_DEVICE_MAX_WORK_GROUP_SIZE.
   std::size_t max_work_group() const { return max_work_group_; }
-  /// Whether the enqueues go through a submission thread (cl_submitter.hpp): by default where the
-  /// work-group kernels run (GPUs, whose drivers spend microseconds in every enqueue) and the
-  /// kernels are not being profiled; $PORTA_OPENCL_SUBMIT_THREAD=on or off overrides (profiling
-  /// keeps it off: its events are read on the calling thread).
-  bool submit_thread() const { return submitter_ != nullptr; }
 
  private:
   template <typename T>
@@ -162,34 +141,7 @@ class OpenClBackend final : public Backend {
       set_arg_raw(k, kernel_name, index, sizeof(T), &value);
     }
   }
-  template <typename T>
-  static void add_arg(ClCommand& command, const T& value) {
-    if constexpr (std::is_base_of_v<Buffer, T>) {
-      const cl_mem m = mem_of(value);
-      command.add_arg(&m, sizeof(m));
-    } else {
-      static_assert(std::is_trivially_copyable_v<T>);
-      command.add_arg(&value, sizeof(T));
-    }
-  }
   using Clock = std::chrono::steady_clock;
-  /// The launch geometry of `range` on this device: the global size rounded up to the work-group
-  /// size (ours on GPUs where the range leaves it to the driver); `global[0] == 0`: nothing to run.
-  struct Geometry {
-    std::size_t global[2] = {0, 0};
-    std::size_t local[2] = {1, 1};
-    cl_uint dims = 1;
-    bool has_local = false;
-  };
-  Geometry geometry(const Range& range) const;
-  /// Hands `command` (a kernel's, arguments set) to the submission thread with `range`'s geometry.
-  void enqueue_later(ClCommand&& command, const Range& range);
-  /// Pushes a command for the current queue (submission thread only).
-  void push(ClCommand&& command);
-  /// Waits for the submission thread (if any) to have enqueued everything; throws its failures.
-  void drain() {
-    if (submitter_) submitter_->drain();
-  }
   void set_arg_raw(cl_kernel k, const char* kernel_name, cl_uint index, std::size_t size, const void* value);
   /// Enqueues `k`; `start` is when its launch() began (host time, when profiling).
   void enqueue(cl_kernel k, const char* kernel_name, const Range& range, Clock::time_point start);
@@ -240,8 +192,6 @@ class OpenClBackend final : public Backend {
   };
   std::vector<TimedDispatch> timed_;  ///< dispatches whose queue has not been finished since
   KernelProfile profile_;
-  /// The submission thread; shared with the pinned host buffers, which drain it before they unmap.
-  std::shared_ptr<ClSubmitter> submitter_;
 };
 
 }  // namespace porta::opencl
