@@ -84,13 +84,33 @@ template <typename V>
 /// images at the default threshold, 16 % of the pixels have 9 bright or 9 dark circle pixels but
 /// only 6 % also one of every opposite pair (3.4 % are corners), so the pairs test keeps the
 /// per-pixel table lookups of the vector step's second pass to 2.5x fewer pixels.
+///
+/// Whether the table is an arc table, too: exactly the masks whose longest circular run lies in
+/// [arc_min, arc_max] pass (what build_fast_lut makes, for any 1 <= arc_min <= arc_max). The
+/// vector step then tests the runs itself instead of looking the masks up one pixel at a time.
 struct PassingMasks {
   int min_bits = 17;
   unsigned opposite_pairs = 0xFF;
+  bool arc_table = false;
+  int arc_min = 17, arc_max = 0;
+};
+
+/// longest_circular_run of every 16-bit mask, and how many masks have each run length.
+struct RunLengths {
+  std::array<std::uint8_t, 65536> of{};
+  std::array<int, 17> count{};
+  RunLengths() {
+    for (unsigned m = 0; m < 65536; ++m) {
+      of[m] = static_cast<std::uint8_t>(longest_circular_run(static_cast<std::uint16_t>(m)));
+      ++count[of[m]];
+    }
+  }
 };
 
 PassingMasks passing_masks(const std::uint8_t* pass) {
+  static const RunLengths runs;  // built once, on first use
   PassingMasks common;
+  int passing = 0;
   for (unsigned mask = 0; mask < 65536; mask += 8) {
     std::uint64_t eight;  // most of a FAST table is zero: skip eight entries at a time
     std::memcpy(&eight, pass + mask, sizeof(eight));
@@ -99,7 +119,17 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
       if (pass[m] == 0) continue;
       common.min_bits = std::min(common.min_bits, std::popcount(m));
       common.opposite_pairs &= (m | (m >> 8)) & 0xFFu;  // pair i is hit when bit i or bit i + 8 is
+      common.arc_min = std::min<int>(common.arc_min, runs.of[m]);
+      common.arc_max = std::max<int>(common.arc_max, runs.of[m]);
+      ++passing;
     }
+  }
+  // Every passing mask's run lies in [arc_min, arc_max]; when as many masks pass as have such a
+  // run, those are all of them and no other passes.
+  if (passing > 0 && common.arc_min >= 1) {
+    int with_run = 0;
+    for (int r = common.arc_min; r <= common.arc_max; ++r) with_run += runs.count[static_cast<std::size_t>(r)];
+    common.arc_table = with_run == passing;
   }
   return common;
 }
@@ -112,12 +142,67 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
   return static_cast<std::uint16_t>(sum);
 }
 
+/// Lanes (nonzero) of the 16-bit masks `m` with a circular run of at least `k` ones, 1 <= k <= 16:
+/// bit j of run(k) is set when bits j .. j + k - 1 (mod 16) all are, built from runs of 1, 2, 4, 8
+/// and 16 (each the last one and itself rotated by its length).
+[[gnu::always_inline]] inline simd::u16x16 run_at_least(const simd::u16x16& m, int k) {
+  const auto rotate = [](const simd::u16x16& v, int s) {  // bit j <- bit j + s (mod 16)
+    return s == 0 ? v : static_cast<simd::u16x16>((v >> s) | (v << (16 - s)));
+  };
+  simd::u16x16 run[5];
+  run[0] = m;
+  for (int b = 1; b < 5; ++b) run[b] = run[b - 1] & rotate(run[b - 1], 1 << (b - 1));
+  simd::u16x16 all = run[0] | ~run[0];
+  int shift = 0;
+  for (int b = 4; b >= 0; --b) {
+    if ((k & (1 << b)) == 0) continue;
+    all &= rotate(run[b], shift);
+    shift += 1 << b;
+  }
+  return all;
+}
+
+/// The responses of 32 pixels at `centre` for an arc table, from their masks' bits 0-7 and 8-15 in
+/// bytes: per lane, sum |I_i - c| when the bright or the dark mask has its longest run in
+/// [arc_min, arc_max], else 0 (the reference's result for every lane).
+[[gnu::always_inline]] inline void arc_corners(const std::uint8_t* centre, const std::ptrdiff_t* offsets,
+                                               const simd::u8x32& c, const simd::u8x32& bright_low,
+                                               const simd::u8x32& bright_high, const simd::u8x32& dark_low,
+                                               const simd::u8x32& dark_high, const PassingMasks& common,
+                                               std::uint16_t* out) {
+  using simd::u16x16;
+  using simd::u8x16;
+  using simd::u8x32;
+  const auto half = [](const u8x32& v, int h) { return simd::load<u8x16>(reinterpret_cast<const std::uint8_t*>(&v) + 16 * h); };
+  const auto mask16 = [&](const u8x32& low, const u8x32& high, int h) {
+    return static_cast<u16x16>(simd::convert<u16x16>(half(low, h)) | (simd::convert<u16x16>(half(high, h)) << 8));
+  };
+  const auto passes = [&](const u16x16& m) {
+    const u16x16 zero{};
+    auto ok = static_cast<u16x16>(run_at_least(m, common.arc_min) != zero);
+    if (common.arc_max < 16) ok &= static_cast<u16x16>(run_at_least(m, common.arc_max + 1) == zero);
+    return ok;
+  };
+  u16x16 sum[2] = {};
+  for (int i = 0; i < 16; ++i) {
+    const u8x32 p = simd::load<u8x32>(centre + offsets[i]);
+    const u8x32 d = p > c ? static_cast<u8x32>(p - c) : static_cast<u8x32>(c - p);
+    sum[0] += simd::convert<u16x16>(half(d, 0));
+    sum[1] += simd::convert<u16x16>(half(d, 1));
+  }
+  for (int h = 0; h < 2; ++h) {
+    const u16x16 corner = passes(mask16(bright_low, bright_high, h)) | passes(mask16(dark_low, dark_high, h));
+    simd::store(out + 16 * h, static_cast<u16x16>(sum[h] & corner));
+  }
+}
+
 /// Responses of pixels [x_begin, x_end) of one row (all at least 3 px inside the level), for
 /// 0 <= eps <= 256. The vector step takes 32 pixels at a time and first only counts, per pixel,
 /// the bright and dark circle pixels and checks the opposite pairs (PassingMasks): a pixel whose
 /// masks fail both tests cannot pass, so a block without candidates is all zeros (most blocks).
-/// Otherwise a second pass builds the masks, and only the candidate pixels look them up; the
-/// corners then sum their circle.
+/// Otherwise a second pass builds the masks: for an arc table (PassingMasks::arc_table) every lane
+/// tests its runs and sums its circle in vectors; for any other table only the candidate pixels
+/// look their masks up, and the corners then sum their circle.
 PORTA_CPU_HOT void fast_crf_row(const std::uint8_t* row, const std::ptrdiff_t* offsets, int x_begin,
                                 int x_end, int eps, const std::uint8_t* pass, const PassingMasks& common,
                                 std::uint16_t* out) {
@@ -177,6 +262,11 @@ PORTA_CPU_HOT void fast_crf_row(const std::uint8_t* row, const std::ptrdiff_t* o
         dark_low |= (u8x32)(p_low < below_s) & bit;
         bright_high |= (u8x32)(p_high > above_s) & bit;
         dark_high |= (u8x32)(p_high < below_s) & bit;
+      }
+      if (common.arc_table) {
+        arc_corners(centre, offsets, c, bright_low, bright_high, dark_low, dark_high, common, out + x);
+        if (x + kLanes >= x_end) break;
+        continue;
       }
       std::uint8_t lanes[kLanes], b_low[kLanes], b_high[kLanes], d_low[kLanes], d_high[kLanes];
       simd::store(lanes, candidate);

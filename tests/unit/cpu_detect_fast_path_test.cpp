@@ -109,6 +109,22 @@ std::vector<NamedTable> tables() {
       {"arc 9..13", build_fast_lut(9, 13)},
       {"arc 9..16", build_fast_lut(9, 16)},
       {"arc 12..12", build_fast_lut(12, 12)},
+      // The vector step tests an arc table's runs itself (run lengths 1 to 16 and their ends).
+      {"arc 1..16", build_fast_lut(1, 16)},
+      {"arc 1..1", build_fast_lut(1, 1)},
+      {"arc 16..16", build_fast_lut(16, 16)},
+      {"arc 3..8", build_fast_lut(3, 8)},
+      // An arc table less one of its masks, and one more: no longer an arc table (looked up).
+      {"arc 9..13 less one", [] {
+         auto lut = build_fast_lut(9, 13);
+         lut[0x01FF] = 0;
+         return lut;
+       }()},
+      {"arc 9..13 and one", [] {
+         auto lut = build_fast_lut(9, 13);
+         lut[0x00FF] = 1;
+         return lut;
+       }()},
       // Not arc tables: exactly 9 bits set anywhere (a pixel with exactly the fewest bits must be
       // looked at), a single bit, the empty mask (every pixel looked at), and nothing at all.
       {"popcount 9", table_of([](unsigned m) { return std::popcount(m) == 9; })},
