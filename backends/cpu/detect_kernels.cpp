@@ -128,7 +128,8 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
   // run, those are all of them and no other passes.
   if (passing > 0 && common.arc_min >= 1) {
     int with_run = 0;
-    for (int r = common.arc_min; r <= common.arc_max; ++r) with_run += runs.count[static_cast<std::size_t>(r)];
+    for (int r = common.arc_min; r <= common.arc_max; ++r)
+      with_run += runs.count[static_cast<std::size_t>(r)];
     common.arc_table = with_run == passing;
   }
   return common;
@@ -152,7 +153,7 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
   simd::u16x16 run[5];
   run[0] = m;
   for (int b = 1; b < 5; ++b) run[b] = run[b - 1] & rotate(run[b - 1], 1 << (b - 1));
-  simd::u16x16 all = run[0] | ~run[0];
+  simd::u16x16 all = ~simd::u16x16{};
   int shift = 0;
   for (int b = 4; b >= 0; --b) {
     if ((k & (1 << b)) == 0) continue;
@@ -173,9 +174,12 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
   using simd::u16x16;
   using simd::u8x16;
   using simd::u8x32;
-  const auto half = [](const u8x32& v, int h) { return simd::load<u8x16>(reinterpret_cast<const std::uint8_t*>(&v) + 16 * h); };
+  const auto half = [](const u8x32& v, int h) {  // lanes 16h .. 16h + 15
+    return simd::load<u8x16>(reinterpret_cast<const std::uint8_t*>(&v) + 16 * h);
+  };
   const auto mask16 = [&](const u8x32& low, const u8x32& high, int h) {
-    return static_cast<u16x16>(simd::convert<u16x16>(half(low, h)) | (simd::convert<u16x16>(half(high, h)) << 8));
+    const u16x16 bits_0_7 = simd::convert<u16x16>(half(low, h));
+    return static_cast<u16x16>(bits_0_7 | (simd::convert<u16x16>(half(high, h)) << 8));
   };
   const auto passes = [&](const u16x16& m) {
     const u16x16 zero{};
