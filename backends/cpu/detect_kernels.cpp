@@ -143,24 +143,49 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
   return static_cast<std::uint16_t>(sum);
 }
 
+// The arc test's helpers take and return vectors, so they are always inlined: a lambda or an
+// out-of-line function would be one body shared by fast_crf_row's clones, whose vector ABIs differ
+// (simd.hpp's rules).
+
+/// `v` rotated so that bit j takes bit j + s (mod 16), per 16-bit lane; 0 <= s < 16.
+[[gnu::always_inline]] inline simd::u16x16 rotate16(const simd::u16x16& v, int s) {
+  return s == 0 ? v : static_cast<simd::u16x16>((v >> s) | (v << (16 - s)));
+}
+
 /// Lanes (nonzero) of the 16-bit masks `m` with a circular run of at least `k` ones, 1 <= k <= 16:
-/// bit j of run(k) is set when bits j .. j + k - 1 (mod 16) all are, built from runs of 1, 2, 4, 8
-/// and 16 (each the last one and itself rotated by its length).
+/// bit j of the result is set when bits j .. j + k - 1 (mod 16) all are, built from runs of 1, 2,
+/// 4, 8 and 16 (each the last one and itself rotated by its length).
 [[gnu::always_inline]] inline simd::u16x16 run_at_least(const simd::u16x16& m, int k) {
-  const auto rotate = [](const simd::u16x16& v, int s) {  // bit j <- bit j + s (mod 16)
-    return s == 0 ? v : static_cast<simd::u16x16>((v >> s) | (v << (16 - s)));
-  };
   simd::u16x16 run[5];
   run[0] = m;
-  for (int b = 1; b < 5; ++b) run[b] = run[b - 1] & rotate(run[b - 1], 1 << (b - 1));
+  for (int b = 1; b < 5; ++b) run[b] = run[b - 1] & rotate16(run[b - 1], 1 << (b - 1));
   simd::u16x16 all = ~simd::u16x16{};
   int shift = 0;
   for (int b = 4; b >= 0; --b) {
     if ((k & (1 << b)) == 0) continue;
-    all &= rotate(run[b], shift);
+    all &= rotate16(run[b], shift);
     shift += 1 << b;
   }
   return all;
+}
+
+/// All ones in the lanes whose 16-bit mask has its longest circular run in [arc_min, arc_max].
+[[gnu::always_inline]] inline simd::u16x16 arc_passes(const simd::u16x16& m, const PassingMasks& common) {
+  const simd::u16x16 zero{};
+  auto ok = static_cast<simd::u16x16>(run_at_least(m, common.arc_min) != zero);
+  if (common.arc_max < 16) ok &= static_cast<simd::u16x16>(run_at_least(m, common.arc_max + 1) == zero);
+  return ok;
+}
+
+/// Lanes 16h .. 16h + 15 of `v`.
+[[gnu::always_inline]] inline simd::u8x16 half_of(const simd::u8x32& v, int h) {
+  return simd::load<simd::u8x16>(reinterpret_cast<const std::uint8_t*>(&v) + 16 * h);
+}
+
+/// The 16-bit masks of lanes 16h .. 16h + 15 from their bits 0-7 (`low`) and 8-15 (`high`).
+[[gnu::always_inline]] inline simd::u16x16 mask16(const simd::u8x32& low, const simd::u8x32& high, int h) {
+  const simd::u16x16 bits_0_7 = simd::convert<simd::u16x16>(half_of(low, h));
+  return static_cast<simd::u16x16>(bits_0_7 | (simd::convert<simd::u16x16>(half_of(high, h)) << 8));
 }
 
 /// The responses of 32 pixels at `centre` for an arc table, from their masks' bits 0-7 and 8-15 in
@@ -172,30 +197,17 @@ PassingMasks passing_masks(const std::uint8_t* pass) {
                                                const simd::u8x32& dark_high, const PassingMasks& common,
                                                std::uint16_t* out) {
   using simd::u16x16;
-  using simd::u8x16;
   using simd::u8x32;
-  const auto half = [](const u8x32& v, int h) {  // lanes 16h .. 16h + 15
-    return simd::load<u8x16>(reinterpret_cast<const std::uint8_t*>(&v) + 16 * h);
-  };
-  const auto mask16 = [&](const u8x32& low, const u8x32& high, int h) {
-    const u16x16 bits_0_7 = simd::convert<u16x16>(half(low, h));
-    return static_cast<u16x16>(bits_0_7 | (simd::convert<u16x16>(half(high, h)) << 8));
-  };
-  const auto passes = [&](const u16x16& m) {
-    const u16x16 zero{};
-    auto ok = static_cast<u16x16>(run_at_least(m, common.arc_min) != zero);
-    if (common.arc_max < 16) ok &= static_cast<u16x16>(run_at_least(m, common.arc_max + 1) == zero);
-    return ok;
-  };
   u16x16 sum[2] = {};
   for (int i = 0; i < 16; ++i) {
     const u8x32 p = simd::load<u8x32>(centre + offsets[i]);
     const u8x32 d = p > c ? static_cast<u8x32>(p - c) : static_cast<u8x32>(c - p);
-    sum[0] += simd::convert<u16x16>(half(d, 0));
-    sum[1] += simd::convert<u16x16>(half(d, 1));
+    sum[0] += simd::convert<u16x16>(half_of(d, 0));
+    sum[1] += simd::convert<u16x16>(half_of(d, 1));
   }
   for (int h = 0; h < 2; ++h) {
-    const u16x16 corner = passes(mask16(bright_low, bright_high, h)) | passes(mask16(dark_low, dark_high, h));
+    const u16x16 bright = arc_passes(mask16(bright_low, bright_high, h), common);
+    const u16x16 corner = bright | arc_passes(mask16(dark_low, dark_high, h), common);
     simd::store(out + 16 * h, static_cast<u16x16>(sum[h] & corner));
   }
 }
