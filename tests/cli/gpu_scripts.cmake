@@ -1,7 +1,6 @@
 # ci/gpu-slam.sh, ci/gpu.sh and ci/gpu-kernel-profile.sh refuse a bad setting before they build
-# anything (label cli):
-# each numeric setting of gpu-slam.sh, given a word, exits 2 naming the setting. The GPU runs
-# themselves need a GPU machine.
+# anything (label cli). Each numeric setting of gpu-slam.sh, given a word, exits 2 naming the
+# setting. The GPU runs themselves need a GPU machine.
 find_program(PORTA_BASH bash)
 if(NOT PORTA_BASH)
   return()
@@ -31,8 +30,8 @@ foreach(case "PORTA_PROFILE_VARIANTS=sometimes|PORTA_PROFILE_VARIANTS names 'som
   list(GET parts 1 message)
   string(REGEX REPLACE "=.*" "" setting "${assignment}")
   add_test(NAME cli.gpu_kernel_profile_refuses_${setting}
-           COMMAND ${CMAKE_COMMAND} -E env ${assignment} ${PORTA_BASH} ${CMAKE_SOURCE_DIR}/ci/gpu-kernel-profile.sh
-                   ${porta_cli_dir}/gpu_kernel_profile_refused)
+           COMMAND ${CMAKE_COMMAND} -E env ${assignment} ${PORTA_BASH}
+                   ${CMAKE_SOURCE_DIR}/ci/gpu-kernel-profile.sh ${porta_cli_dir}/gpu_kernel_profile_refused)
   set_tests_properties(cli.gpu_kernel_profile_refuses_${setting} PROPERTIES LABELS cli TIMEOUT 30
                        PASS_REGULAR_EXPRESSION "gpu-kernel-profile.sh: ${message}")
 endforeach()
