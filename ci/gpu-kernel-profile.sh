@@ -30,10 +30,8 @@
 # (PORTA_VULKAN_TRANSFER_QUEUE=on: frames-*-transfer-queue.txt), that and no held batches "unheld"
 # (PORTA_VULKAN_HOLD_BATCHES=off), that and its streams on 4 device queues "device-queues"
 # (PORTA_VULKAN_DEVICE_QUEUES=4), the transfer queue with a frame held only while 2 batches are
-# still to run "hold-2" (PORTA_VULKAN_HOLD_BATCHES=2), the pyramid one dispatch per level instead
-# of the chained one (NVIDIA's default) "unchained" (PORTA_VULKAN_CHAINED_PYRAMID=off, frame times
-# and kernels-*-unchained.txt), and "repeat": the default frame times once more, last, to see the
-# run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
+# still to run "hold-2" (PORTA_VULKAN_HOLD_BATCHES=2), and "repeat": the default frame times once
+# more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
 # pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
@@ -51,8 +49,8 @@ case "$frames" in '' | *[!0-9]* | 0) say "PORTA_PROFILE_FRAMES must be a whole n
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | unchained | repeat | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 unchained repeat none"
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 repeat none"
      exit 1 ;;
   esac
 done
@@ -121,8 +119,7 @@ for cell in "${cells[@]}"; do
   for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
     "unheld PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off" \
     "device-queues PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off PORTA_VULKAN_DEVICE_QUEUES=4" \
-    "hold-2 PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=2" \
-    "unchained PORTA_VULKAN_CHAINED_PYRAMID=off"; do
+    "hold-2 PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=2"; do
     read -r v settings <<<"$setting"
     { [[ ",$all," == *",vulkan,"* ]] && variant "$v"; } || continue
     say "cell $name: vulkan with $settings"
@@ -130,12 +127,6 @@ for cell in "${cells[@]}"; do
     env $settings "$binary" bench --backend vulkan "${common[@]}" "${bench_args[@]}" \
       --json "$out_dir/frames-$name-$v.json" >"$out_dir/frames-$name-$v.txt" 2>>"$out_dir/bench.log" || status=1
   done
-  if [[ ",$all," == *",vulkan,"* ]] && variant unchained; then
-    say "cell $name: vulkan's per-kernel device time with PORTA_VULKAN_CHAINED_PYRAMID=off"
-    PORTA_VULKAN_CHAINED_PYRAMID=off "$binary" bench --backend vulkan "${common[@]}" --profile-kernels \
-      --json "$out_dir/kernels-$name-unchained.json" >"$out_dir/kernels-$name-unchained.txt" 2>>"$out_dir/bench.log" ||
-      status=1
-  fi
   if variant repeat; then
     say "cell $name: frame times on $all again"
     "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name-repeat.json" \
@@ -177,12 +168,11 @@ fi
     echo "detection in four kernels (PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
-    for v in transfer-queue unheld device-queues hold-2 unchained repeat; do
+    for v in transfer-queue unheld device-queues hold-2 repeat; do
       [ -f "$out_dir/frames-$name-$v.txt" ] || continue
       echo "$v:"
       grep -E '^(cpu|cuda|vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
     done
-    sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unchained.txt" 2>/dev/null
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then

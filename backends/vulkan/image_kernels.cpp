@@ -59,9 +59,7 @@ void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
       Work::grid(static_cast<std::uint64_t>(dst_plane.width), static_cast<std::uint64_t>(dst_plane.height)));
 }
 
-// §3.2. With chained_pyramid(): levels 1..m in one dispatch, a workgroup per 32 x 8 tile of them
-// that waits for the tiles of the level above it reads (build_pyramid_chained.comp). With
-// $PORTA_VULKAN_FUSED_PYRAMID=on: levels 1..m in one dispatch, one workgroup per
+// §3.2. With $PORTA_VULKAN_FUSED_PYRAMID=on: levels 1..m in one dispatch, one workgroup per
 // 32 x 8 tile of them (build_pyramid_fused.comp; m as far as each tile's regions fit in shared
 // memory, for 8 levels at scale 1.2 all of them). The levels after m, and every level by default:
 // one dispatch per level, in order (each reads the level above; barriers between them), 32 x 8
@@ -71,21 +69,6 @@ void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, 
   const int levels = layout.num_levels();
   checks::check_pyramid(kBackend, pyramid, layout, resize_table, level_offset, /*reject_negative_offsets=*/true,
                         kPlaneLimits);
-  if (chained_pyramid_ && levels > 2) {
-    PyramidFusedParams params{};
-    params.layout = to_glsl(layout, "build_pyramid");
-    PyramidLayout tiled = layout;  // tiles of levels 1..levels-1
-    tiled.levels[0].width = 0;
-    std::uint64_t tiles = 0;
-    params.tiles = tiles_of(tiled, "build_pyramid", tiles);
-    if (tiles == 0) return;
-    for (int n = 1; n < levels; ++n) params.table_offset[n] = level_offset[static_cast<std::size_t>(n - 1)];
-    // [0] ticket, [1] finished workgroups, then a count per tile (zero when made; the shader
-    // leaves it zero for the next dispatch).
-    Buffer& control = scratch("pyramid_chain", static_cast<std::size_t>(2 + tiles) * 4);
-    rt().dispatch("build_pyramid_chained", {&pyramid, &resize_table, &control}, params, Work::groups(tiles));
-    return;
-  }
   int first = 1;  // the first level built one dispatch per level
   if (fused_pyramid_ && levels > 2) {
     const int fused = fused_levels_(layout);

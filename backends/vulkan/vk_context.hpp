@@ -122,8 +122,6 @@ class Context {
   /// The device is a CPU (lavapipe): kernels with a workgroup per item cost more than they save
   /// there. $PORTA_VULKAN_WORK_GROUPS=on or off overrides (work_groups()).
   bool cpu_device() const { return properties_.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU; }
-  /// The device's PCI vendor ID (0x10DE: NVIDIA).
-  std::uint32_t vendor_id() const { return properties_.vendorID; }
   const DeviceEntry& entry() const { return entry_; }
   bool validation() const { return messenger_ != VK_NULL_HANDLE; }
 

@@ -18,11 +18,6 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   work_groups_ = checks::env_switch("vulkan", "PORTA_VULKAN_WORK_GROUPS", work_groups_);
   // Off by default until measured on a GPU (the bytes are the suite's, on lavapipe).
   fused_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", false);
-  // Workgroups that wait for one another need the device to run the ones it started side by
-  // side, which Vulkan does not promise: on by default on NVIDIA's GPUs only (measured there).
-  constexpr std::uint32_t kNvidia = 0x10DE;
-  chained_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_CHAINED_PYRAMID",
-                                        work_groups_ && runtime_->context().vendor_id() == kNvidia);
   // Detection in fewer dispatches (FAST with culling, PFA with compaction): each dispatch and
   // barrier saved is device time between kernels and host time recording them.
   fused_detect_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_DETECT",

@@ -138,10 +138,6 @@ class VulkanBackend final : public Backend {
   /// Whether detect_keypoints fuses its kernels: where work_groups() is on (and the device runs
   /// workgroups of 1024); $PORTA_VULKAN_FUSED_DETECT=on or off overrides.
   bool fused_detect() const { return fused_detect_; }
-  /// Whether build_pyramid builds levels 1..m in one dispatch whose workgroups wait for the tiles
-  /// they read (build_pyramid_chained.comp): by default on NVIDIA's GPUs (with work_groups());
-  /// $PORTA_VULKAN_CHAINED_PYRAMID=on or off overrides.
-  bool chained_pyramid() const { return chained_pyramid_; }
 
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
@@ -152,7 +148,6 @@ class VulkanBackend final : public Backend {
   /// Whether build_pyramid fuses levels ($PORTA_VULKAN_FUSED_PYRAMID=on; off by default).
   bool fused_pyramid_ = false;
   bool fused_detect_ = false;
-  bool chained_pyramid_ = false;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };
