@@ -66,11 +66,15 @@ ClPfa check_pfa(const Buffer& cells, const CellLayout& cell_layout, const PfaPar
   return checks::check_pfa(kBackend, cells, cell_layout, params, std::numeric_limits<std::uint32_t>::max() / 4);
 }
 
-/// pfa_compact_group's most cells, as vulkan's: each step one round of the work-group. Over the
-/// ~1 500 cells of an 8-level 1242x375 image it takes two, and on the H200 that cost the device
-/// more than the host saved on launches: 234 against 207 us per stereo pair with the separate PFA
-/// and compaction, 4 frames in flight and pinned input, where the device bounds opencl.
+/// pfa_compact_group runs PFA's steps A and B up to this many cells, as vulkan's: each step one
+/// round of the work-group. Over the ~1 500 cells of an 8-level 1242x375 image it takes two, and on
+/// the H200 that cost the device more than the host saved on launches: 234 against 207 us per
+/// stereo pair with the separate PFA and compaction, 4 frames in flight and pinned input, where the
+/// device bounds opencl. Above, fast_cull_group does step A and pfa_decide step B, and
+/// pfa_compact_group step C and the compaction, whatever the count.
 constexpr int kPfaCompactGroupCells = 512;
+/// pfa_compact_group's pfa_steps: which of PFA's steps it runs.
+constexpr cl_int kPfaAccumulate = 1, kPfaDecide = 2, kPfaApply = 4;
 /// fast_cull_group's work-group size (its reqd_work_group_size).
 constexpr int kFastCullGroup = 256;
 
@@ -171,10 +175,11 @@ void OpenClBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
          blocks, *out.items, static_cast<cl_uint>(capacity));
 }
 
-// §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST and culling in one launch
-// (fast_cull_group: no response plane), then PFA and the compaction in one work-group up to
-// kPfaCompactGroupCells (pfa_compact_group), so an image is two launches where the four calls take
-// four to six (NVIDIA's OpenCL costs the host ~5 us per enqueue); the same checks and the same bytes.
+// §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST, culling and PFA's step A in one
+// launch (fast_cull_group: no response plane), then PFA's other steps and the compaction in one
+// work-group up to kPfaCompactGroupCells (pfa_compact_group), so an image is two launches where the
+// four calls take four to six (NVIDIA's OpenCL costs the host ~5 us per enqueue); above, step B in
+// a launch of its own (pfa_decide) between them: three. The same checks and the same bytes.
 void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                                      Buffer& responses, const PyramidLayout& response_layout,
                                      const FastParams& fast, const CellLayout& cell_layout, Buffer& cells,
@@ -187,6 +192,18 @@ void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   }
   check_fast(pyramid, layout, lut, responses, response_layout, fast);
   const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
+  const int total = cell_layout.total_cells;
+  const bool in_group = total >= 1 && max_work_group() >= 1024;  // pfa_compact_group can run
+  // PFA's checks and scratch maps first: fast_cull_group does its step A where it writes every
+  // cell PFA reads and pfa_compact_group finishes it.
+  ClPfa p{};
+  if (pfa != nullptr) p = check_pfa(cells, cell_layout, *pfa);
+  const bool use_pfa = pfa != nullptr && p.total_cells > 0;
+  const bool accumulate = use_pfa && in_group && end_cell == total && pfa_in_cull();
+  const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(p.width0, 1)) * std::max(p.height0, 1);
+  // Without PFA or items, the cell array stands in for the unused buffers (nothing is written there).
+  Buffer& sum_map = use_pfa ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& level_map = use_pfa ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
   if (end_cell > 0) {
     ClCells grid = to_cl(cell_layout);
     const checks::CellGroups groups = checks::plan_cell_groups(kBackend, "fast_cull_group", cell_layout, kFastCullGroup);
@@ -196,26 +213,29 @@ void OpenClBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
     }
     launch("detect", "fast_cull_group",
            Range::linear(static_cast<std::size_t>(groups.groups) * kFastCullGroup, kFastCullGroup), pyramid,
-           to_cl(layout), lut, grid, static_cast<cl_int>(fast.threshold), static_cast<cl_int>(fast.edge), cells);
+           to_cl(layout), lut, grid, static_cast<cl_int>(fast.threshold), static_cast<cl_int>(fast.edge),
+           cells, static_cast<cl_int>(accumulate ? 1 : 0), p, sum_map, level_map);
   }
-  const int total = cell_layout.total_cells;
-  if (total < 1 || total > kPfaCompactGroupCells || max_work_group() < 1024) {
-    if (pfa != nullptr) pfa_filter(cells, cell_layout, *pfa);
+  const bool whole_pfa_in_group = use_pfa && !accumulate && total <= kPfaCompactGroupCells;
+  if (!in_group || (use_pfa && !accumulate && !whole_pfa_in_group)) {
+    if (use_pfa) pfa_filter(cells, cell_layout, *pfa);
     compact_keypoints(cells, total, out);
     return;
   }
-  ClPfa p{};
-  if (pfa != nullptr) p = check_pfa(cells, cell_layout, *pfa);
   const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
-  const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(p.width0, 1)) * std::max(p.height0, 1);
-  // Without PFA or items, the cell array stands in for the unused buffers (nothing is written there).
-  Buffer& sum_map = pfa != nullptr ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  Buffer& rejected = use_pfa ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  cl_int steps = whole_pfa_in_group ? kPfaAccumulate | kPfaDecide | kPfaApply
+                 : use_pfa          ? kPfaDecide | kPfaApply
+                                    : 0;
+  if (use_pfa && total > kPfaCompactGroupCells) {  // step B over the cells, a work-item each
+    launch("detect", "pfa_decide", Range::linear(static_cast<std::size_t>(total)), cells, p, sum_map,
+           level_map, rejected);
+    steps = kPfaApply;
+  }
   const Buffer& items = capacity > 0 ? *out.items : cells;
-  launch("detect", "pfa_compact_group", Range::linear(1024, 1024), cells, static_cast<cl_int>(pfa != nullptr ? 1 : 0),
-         p, sum_map, level_map, rejected, static_cast<cl_int>(total), items, static_cast<cl_uint>(capacity),
-         *out.count, static_cast<cl_ulong>(out.count_offset_bytes));
+  launch("detect", "pfa_compact_group", Range::linear(1024, 1024), cells, steps, p, sum_map, level_map,
+         rejected, static_cast<cl_int>(total), items, static_cast<cl_uint>(capacity), *out.count,
+         static_cast<cl_ulong>(out.count_offset_bytes));
 }
 
 }  // namespace porta::opencl

@@ -150,6 +150,7 @@ OpenClBackend::OpenClBackend(const BackendOptions& options) : device_(select_dev
   // Detection in fewer launches (FAST with culling, PFA with compaction) where the work-group
   // kernels run (GPUs): each launch saved is ~5 us of the host's time on NVIDIA's OpenCL.
   fused_detect_ = checks::env_switch("opencl", "PORTA_OPENCL_FUSED_DETECT", work_groups_);
+  pfa_in_cull_ = checks::env_switch("opencl", "PORTA_OPENCL_PFA_IN_CULL", true);
 }
 
 OpenClBackend::~OpenClBackend() {

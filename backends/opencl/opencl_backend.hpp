@@ -124,6 +124,11 @@ class OpenClBackend final : public Backend {
   /// Whether detect_keypoints fuses its kernels (fast_cull_group, pfa_compact_group): where
   /// work_groups() is on; $PORTA_OPENCL_FUSED_DETECT=on or off overrides.
   bool fused_detect() const { return fused_detect_; }
+  /// With fused_detect(): whether fast_cull_group also does PFA's step A (and pfa_compact_group
+  /// the rest, with pfa_decide between them above kPfaCompactGroupCells cells), or PFA runs whole
+  /// in pfa_compact_group up to that many cells and as pfa_filter above, as before `PFA in the
+  /// cull` ($PORTA_OPENCL_PFA_IN_CULL=on, the default, or off). The same bytes either way.
+  bool pfa_in_cull() const { return pfa_in_cull_; }
   /// Whether build_pyramid builds levels 1..m in one launch (build_pyramid_fused): by default
   /// where work_groups() is on; $PORTA_OPENCL_FUSED_PYRAMID=on or off overrides.
   bool fused_pyramid() const { return fused_pyramid_; }
@@ -184,6 +189,7 @@ class OpenClBackend final : public Backend {
   bool profile_kernels_ = false;
   bool work_groups_ = false;
   bool fused_detect_ = false;
+  bool pfa_in_cull_ = true;
   std::size_t max_work_group_ = 0;
   struct TimedDispatch {
     int queue;

@@ -83,16 +83,22 @@ struct FastCullParams {  // fast_cull.comp (parameter buffer)
   GlslLevels layout;
   GlslCells cells;
   std::int32_t eps, edge, pad[2];
+  // PFA's step A in the same dispatch (accumulate != 0): PfaStepParams' fields.
+  std::int32_t scales[kMaxLevels];
+  std::int32_t num_scales, width0, height0, accumulate;
 };
 struct PfaCompactParams {  // pfa_compact_group.comp (push constants): PFA's, then the compaction's
   PfaStepParams pfa;
-  std::uint32_t use_pfa, capacity, count_offset;
+  std::uint32_t pfa_steps, capacity, count_offset;
 };
 static_assert(sizeof(PfaCompactParams) <= kMaxPushBytes);
+/// pfa_compact_group.comp's pfa_steps: which of PFA's steps it runs.
+constexpr std::uint32_t kPfaAccumulate = 1, kPfaDecide = 2, kPfaApply = 4;
 /// fast_cull.comp's workgroup size (its GROUP).
 constexpr int kFastCullGroup = 256;
-/// pfa_compact_group.comp's most cells (its invocations loop over them; as kPfaGroupCells).
-constexpr int kPfaCompactGroupCells = 512;
+/// pfa_compact_group.comp runs PFA's steps A and B up to this many cells (its invocations loop
+/// over them; as kPfaGroupCells); above, fast_cull.comp does step A and pfa_decide.comp step B,
+/// and pfa_compact_group.comp step C and the compaction, whatever the count.
 
 }  // namespace
 
@@ -202,10 +208,11 @@ void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, Devi
     rt().dispatch("compact_scatter", {&cells, &blocks, items, out.count}, p, Work::items(num_blocks));
 }
 
-// §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST and culling in one dispatch
-// (fast_cull.comp: no response plane), then PFA and the compaction in one workgroup for a few
-// hundred cells (pfa_compact_group.comp); two dispatches where the four calls take four. The same
-// checks and the same bytes.
+// §3.3-§3.5 and the compaction. On a GPU (fused_detect()): FAST, culling and PFA's step A in one
+// dispatch (fast_cull.comp: no response plane), then PFA's other steps and the compaction in one
+// workgroup for a few hundred cells (pfa_compact_group.comp): two dispatches where the four calls
+// take six. For more cells, step B in a dispatch of its own (pfa_decide.comp) between them:
+// three. The same checks and the same bytes.
 void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut,
                                      Buffer& responses, const PyramidLayout& response_layout,
                                      const porta::FastParams& fast, const CellLayout& cell_layout, Buffer& cells,
@@ -216,38 +223,67 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   }
   check_fast(pyramid, layout, lut, responses, response_layout, fast);
   const std::int64_t end_cell = check_cull(responses, response_layout, cell_layout, cells);
+  const int total = cell_layout.total_cells;
+  // PFA's checks and scratch maps first: fast_cull does its step A where it writes every cell
+  // PFA reads.
+  PfaCompactParams g{};
+  if (pfa != nullptr) g.pfa = check_pfa(cells, cell_layout, *pfa);
+  const bool use_pfa = pfa != nullptr && g.pfa.total_cells > 0;
+  const bool accumulate = use_pfa && end_cell == total && pfa_in_cull();
+  const bool whole_pfa_in_group = use_pfa && !accumulate && total <= kPfaGroupCells;
+  const std::int64_t pixels0 =
+      static_cast<std::int64_t>(std::max(g.pfa.width0, 1)) * std::max(g.pfa.height0, 1);
+  // Without PFA or items, the cell array stands in for the unused bindings (nothing is written there).
+  Buffer& sum_map = use_pfa ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
+  Buffer& level_map = use_pfa ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
   if (end_cell > 0) {
-    FastCullParams f{to_glsl(layout, "fast_crf"), to_glsl(cell_layout, "cull_cells"), fast.threshold,
-                     fast.edge, {0, 0}};
+    FastCullParams f{};
+    f.layout = to_glsl(layout, "fast_crf");
+    f.cells = to_glsl(cell_layout, "cull_cells");
+    f.eps = fast.threshold;
+    f.edge = fast.edge;
     const checks::CellGroups groups = checks::plan_cell_groups(kBackend, "fast_cull", cell_layout, kFastCullGroup);
     for (std::size_t n = 0; n < groups.shift.size(); ++n) {
       f.cells.level[n].first_group = groups.first_group[n];
       f.cells.level[n].group_shift = groups.shift[n];
     }
-    rt().dispatch("fast_cull", {&pyramid, &lut, &cells}, f, Work::groups(static_cast<std::uint64_t>(groups.groups)));
+    if (accumulate) {
+      std::copy(std::begin(g.pfa.scales), std::end(g.pfa.scales), std::begin(f.scales));
+      f.num_scales = g.pfa.num_scales;
+      f.width0 = g.pfa.width0;
+      f.height0 = g.pfa.height0;
+      f.accumulate = 1;
+    }
+    rt().dispatch("fast_cull", {&pyramid, &lut, &cells, &sum_map, &level_map}, f,
+                  Work::groups(static_cast<std::uint64_t>(groups.groups)));
   }
-  const int total = cell_layout.total_cells;
-  if (total < 1 || total > kPfaCompactGroupCells) {
-    if (pfa != nullptr) pfa_filter(cells, cell_layout, *pfa);
+  if (total < 1) {
     compact_keypoints(cells, total, out);
     return;
   }
-  PfaCompactParams g{};
-  if (pfa != nullptr) g.pfa = check_pfa(cells, cell_layout, *pfa);
-  g.pfa.total_cells = total;  // the compaction's count whether or not PFA runs
+  if (use_pfa && !accumulate && !whole_pfa_in_group) {  // PFA as pfa_filter runs it
+    pfa_filter(cells, cell_layout, *pfa);
+    compact_keypoints(cells, total, out);
+    return;
+  }
   if (out.count != nullptr &&
       (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
     throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
                        " is out of range");
   const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
-  g.use_pfa = pfa != nullptr ? 1u : 0u;
+  Buffer& rejected = use_pfa ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+  if (whole_pfa_in_group) {
+    g.pfa_steps = kPfaAccumulate | kPfaDecide | kPfaApply;
+  } else if (use_pfa && total > kPfaGroupCells) {  // step B over the cells, an invocation each
+    rt().dispatch("pfa_decide", {&cells, &sum_map, &level_map, &rejected}, g.pfa,
+                  Work::items(static_cast<std::uint64_t>(total)));
+    g.pfa_steps = kPfaApply;
+  } else {
+    g.pfa_steps = use_pfa ? kPfaDecide | kPfaApply : 0u;
+  }
+  g.pfa.total_cells = total;  // the compaction's count whether or not PFA runs
   g.capacity = static_cast<std::uint32_t>(capacity);
   g.count_offset = static_cast<std::uint32_t>(out.count_offset_bytes);
-  const std::int64_t pixels0 = static_cast<std::int64_t>(std::max(g.pfa.width0, 1)) * std::max(g.pfa.height0, 1);
-  // Without PFA or items, the cell array stands in for the unused bindings (nothing is written there).
-  Buffer& sum_map = pfa != nullptr ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& level_map = pfa != nullptr ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
-  Buffer& rejected = pfa != nullptr ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
   const Buffer* items = capacity > 0 ? out.items : &cells;
   rt().dispatch("pfa_compact_group", {&cells, &sum_map, &level_map, &rejected, items, out.count}, g,
                 Work::groups(1));

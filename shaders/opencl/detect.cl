@@ -302,24 +302,29 @@ __kernel void pfa_apply(__global porta_keypoint* cells, const porta_pfa p, __glo
   if (i < p.total_cells) porta_pfa_apply_cell(cells, i, &p, sum_map, level_map, rejected);
 }
 
-// The three steps in one 1024-wide work-group (GPUs), a barrier between them instead of a launch.
-// Work-item t handles cells t, t + 1024, ... in every step, so rejected[i] is written and read by
-// the same work-item; the maps the atomics of step A wrote are read by others after the barrier's
-// global fence. The same bytes as the three launches.
+// The steps that `steps` names (bit 0 step A, bit 1 step B, bit 2 step C; uniform) in one
+// 1024-wide work-group (GPUs), a barrier between them instead of a launch. Work-item t handles cells
+// t, t + 1024, ... in every step, so rejected[i] is written and read by the same work-item; the
+// maps the atomics of step A wrote are read by others after the barrier's global fence. The same
+// bytes as the three launches. A step left out loops over no cell; its barrier stays (PoCL has
+// given wrong bytes and crashed with barriers inside ifs).
+#define PORTA_PFA_ALL_STEPS 7
 inline void porta_pfa_in_group(__global porta_keypoint* cells, const porta_pfa* p, __global uint* sum_map,
-                               __global uint* level_map, __global uchar* rejected) {
+                               __global uint* level_map, __global uchar* rejected, const int steps) {
   const int t = (int)get_local_id(0);
-  for (int i = t; i < p->total_cells; i += 1024) porta_pfa_accumulate_cell(cells, i, p, sum_map, level_map);
+  const int a = (steps & 1) ? p->total_cells : 0, b = (steps & 2) ? p->total_cells : 0;
+  const int c = (steps & 4) ? p->total_cells : 0;
+  for (int i = t; i < a; i += 1024) porta_pfa_accumulate_cell(cells, i, p, sum_map, level_map);
   barrier(CLK_GLOBAL_MEM_FENCE);
-  for (int i = t; i < p->total_cells; i += 1024) porta_pfa_decide_cell(cells, i, p, sum_map, level_map, rejected);
+  for (int i = t; i < b; i += 1024) porta_pfa_decide_cell(cells, i, p, sum_map, level_map, rejected);
   barrier(CLK_GLOBAL_MEM_FENCE);  // every read of the maps is done before step C clears them
-  for (int i = t; i < p->total_cells; i += 1024) porta_pfa_apply_cell(cells, i, p, sum_map, level_map, rejected);
+  for (int i = t; i < c; i += 1024) porta_pfa_apply_cell(cells, i, p, sum_map, level_map, rejected);
 }
 
 __kernel __attribute__((reqd_work_group_size(1024, 1, 1)))
 void pfa_group(__global porta_keypoint* cells, const porta_pfa p, __global uint* sum_map,
                __global uint* level_map, __global uchar* rejected) {
-  porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
+  porta_pfa_in_group(cells, &p, sum_map, level_map, rejected, PORTA_PFA_ALL_STEPS);
 }
 
 // Canonical compaction, step 1 (ARCHITECTURE.md "Keypoint list"): one work-item per block of
@@ -472,10 +477,14 @@ void fast_tiled(__global const uchar* pyramid, const porta_levels layout, __glob
 // whole group, four pixels per work-item; 8 x 8 cells sixteen to a group). The key
 // (response << 32) | ~(row-major index in the cell) and its maximum are cull_cells_group's; the
 // pixels within `edge` of the border have response 0, as fast_crf gives them. The same cell
-// records as fast_crf then cull_cells.
+// records as fast_crf then cull_cells. With `accumulate`, each cell's keypoint also does §3.5 PFA's
+// step A (porta_pfa_accumulate_cell: atomics that commute) into the level-0 maps, so that PFA
+// needs no launch of its own for it.
 __kernel __attribute__((reqd_work_group_size(256, 1, 1)))
 void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, __global const uchar* lut,
-                     const porta_cells grid, const int eps, const int edge, __global porta_keypoint* out) {
+                     const porta_cells grid, const int eps, const int edge, __global porta_keypoint* out,
+                     const int accumulate, const porta_pfa pfa, __global uint* sum_map,
+                     __global uint* level_map) {
   __local ulong best[256];
   const int group = (int)get_group_id(0);
   const int lid = (int)get_local_id(0);
@@ -517,21 +526,29 @@ void fast_cull_group(__global const uchar* pyramid, const porta_levels layout, _
   const ulong k = best[lid];
   const ushort r = (ushort)(k >> 32);
   const int i = (int)(0xFFFFFFFFu - (uint)(k & 0xFFFFFFFFul));
-  out[g.first_cell + index] = r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
+  const porta_keypoint kp =
+      r > 0 ? porta_cell_keypoint(r, x0 + i % w, y0 + i / w, n) : porta_cell_keypoint(0, 0, 0, 0);
+  out[g.first_cell + index] = kp;
+  if (accumulate && porta_pfa_keypoint(kp, &pfa)) {  // porta_pfa_accumulate_cell
+    const uint l = porta_pfa_location(kp, pfa.scales, pfa.width0, pfa.height0);
+    atomic_add(&sum_map[l], (uint)kp.response);
+    atomic_or(&level_map[l], 1u << kp.level);
+  }
 }
 
-// §3.5 and the compaction of at most a few hundred cells in one 1024-wide work-group (GPUs; the
-// backend's detect_keypoints): pfa_group's steps when use_pfa (uniform), a barrier, then
-// compact_group's scan with 1024 work-items. The same bytes as pfa_filter then compact_keypoints.
+// §3.5 and the compaction in one 1024-wide work-group (GPUs; the backend's detect_keypoints): the
+// PFA steps that pfa_steps names (porta_pfa_in_group; the steps before them ran elsewhere:
+// fast_cull_group's step A, pfa_decide's step B), a barrier, then compact_group's scan with 1024
+// work-items. Steps A and B loop over every cell in one work-group, so the backend gives them to it
+// only for a few hundred cells; step C and the scan, any number. The same bytes as pfa_filter then
+// compact_keypoints.
 __kernel __attribute__((reqd_work_group_size(1024, 1, 1)))
-void pfa_compact_group(__global porta_keypoint* cells, const int use_pfa, const porta_pfa p, __global uint* sum_map,
-                       __global uint* level_map, __global uchar* rejected, const int total_cells,
-                       __global porta_keypoint* items, const uint capacity, __global uchar* count_bytes,
-                       const ulong count_offset) {
+void pfa_compact_group(__global porta_keypoint* cells, const int pfa_steps, const porta_pfa p,
+                       __global uint* sum_map, __global uint* level_map, __global uchar* rejected,
+                       const int total_cells, __global porta_keypoint* items, const uint capacity,
+                       __global uchar* count_bytes, const ulong count_offset) {
   __local uint sums[1024];
-  if (use_pfa) {
-    porta_pfa_in_group(cells, &p, sum_map, level_map, rejected);
-    barrier(CLK_GLOBAL_MEM_FENCE);  // the cleared cells are read by other work-items below
-  }
+  porta_pfa_in_group(cells, &p, sum_map, level_map, rejected, pfa_steps);
+  barrier(CLK_GLOBAL_MEM_FENCE);  // the cleared cells are read by other work-items below
   porta_compact_in_group(cells, total_cells, items, capacity, count_bytes, count_offset, sums, 1024);
 }

@@ -11,13 +11,17 @@
 // workgroup). The key (response << 32) | ~(row-major index in the cell) and its maximum are
 // cull_cells.comp's, reduced through shared memory (no subgroup operations, so any subgroup size
 // gives the same bytes); pixels within `edge` of the border have response 0, as fast_crf gives
-// them. The same cell records as fast_crf then cull_cells.
+// them. The same cell records as fast_crf then cull_cells. With `accumulate`, each cell's keypoint
+// also does §3.5 PFA's step A (pfa_accumulate_cell: its response and level bit into the level-0
+// maps at its L, atomics that commute), so that PFA needs no dispatch of its own for it.
 #define GROUP 256
 layout(local_size_x = GROUP) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Pyramid { uint8_t pyramid[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Lut { uint8_t lut[]; };
 layout(std430, set = 0, binding = 2) writeonly buffer Out { uvec2 cells_out[]; };
+layout(std430, set = 0, binding = 3) buffer SumMap { uint sum_map[]; };
+layout(std430, set = 0, binding = 4) buffer LevelMap { uint level_map[]; };
 layout(std430, set = 1, binding = 0) readonly buffer Params {
   Levels layout_;
   Cells cells;
@@ -25,9 +29,16 @@ layout(std430, set = 1, binding = 0) readonly buffer Params {
   int edge;
   int pad0;
   int pad1;
+  // PFA's step A (PfaStepParams' fields), when accumulate != 0.
+  int scales[PORTA_MAX_LEVELS];
+  int num_scales;
+  int width0;
+  int height0;
+  int accumulate;
 } p;
 
 #include "fast_common.glsl"
+#include "pfa_location.glsl"
 
 shared uint64_t best[GROUP];
 
@@ -79,6 +90,11 @@ void main() {
     if (r > 0u) {
       const int i = int(0xFFFFFFFFu - uint(k & 0xFFFFFFFFul));
       kp = make_keypoint(uint(x0 + i % w), uint(y0 + i / w), r, uint(n), 0u);
+      if (p.accumulate != 0 && n < p.num_scales) {  // pfa_accumulate_cell
+        const uint l = pfa_location(kp);
+        atomicAdd(sum_map[l], r);
+        atomicOr(level_map[l], 1u << uint(n));
+      }
     }
     cells_out[grid.first_cell + index] = kp;
   }

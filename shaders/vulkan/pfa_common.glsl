@@ -36,14 +36,7 @@ bool pfa_keypoint(uint i, out uvec2 kp) {
   return kp_response(kp) != 0u && int(kp_level(kp)) < p.num_scales;
 }
 
-// L = Y * width0 + X with X = (x * S[level]) >> 16 and Y likewise, clamped to the level-0 image
-// (64-bit products of the sign-extended scale, as the cpu backend).
-uint pfa_location(uvec2 kp) {
-  const uint64_t scale = uint64_t(int64_t(p.scales[kp_level(kp)]));
-  const uint64_t x = min((uint64_t(kp_x(kp)) * scale) >> 16, uint64_t(p.width0 - 1));
-  const uint64_t y = min((uint64_t(kp_y(kp)) * scale) >> 16, uint64_t(p.height0 - 1));
-  return uint(y * uint64_t(p.width0) + x);
-}
+#include "pfa_location.glsl"
 
 // score(L) = (sum of responses at L) * (number of distinct levels at L), in uint32 as the cpu.
 uint pfa_score(uint l) { return sum_map[l] * uint(bitCount(level_map[l])); }

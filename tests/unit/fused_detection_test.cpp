@@ -1,9 +1,12 @@
 // Backend::detect_keypoints fused on the GPU backends (opencl and vulkan, their work-group
-// kernels forced on so that PoCL and lavapipe run them in CI): FAST with culling in one launch and
-// PFA with the compaction in one more up to 512 cells, the separate launches beyond, checked
-// against the cpu backend byte for byte (keypoints, descriptors, stereo matches) with PFA on and
-// off, cells of 32, 16 and 8 pixels, one, two and four levels, and the fusion switched off; a bad
-// switch value and bad arguments are clear errors. Skips, saying why, where the backend has no device.
+// kernels forced on so that PoCL and lavapipe run them in CI): FAST with culling and PFA's step A
+// in one launch, PFA's other steps with the compaction in one more (with PFA's step B in a launch
+// between them above 512 cells), checked against the cpu backend byte for byte (keypoints,
+// descriptors, stereo matches) with PFA on and off, cells of 32, 16 and 8 pixels, one, two and four
+// levels, PFA's step A left to PFA's own launches (the *_PFA_IN_CULL switch: PFA whole in the
+// compaction's work-group up to 512 cells, pfa_filter's three launches above) and the fusion
+// switched off; bad switch values and bad arguments are clear errors. Skips, saying why, where the
+// backend has no device.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -26,9 +29,9 @@ using test::ScopedEnv;
 
 struct FusedBackend {
   const char* name;
-  int group_cells;              // the most cells PFA and the compaction take in one launch
   const char* work_groups_env;  // forces the GPU kernels on
   const char* fused_env;        // the fusion's own switch
+  const char* in_cull_env;      // PFA's step A in the cull's launch
   const char* fast_cull;        // the kernels' names in kernel_times()
   const char* pfa_compact;
   const char* fast_alone;
@@ -58,24 +61,30 @@ TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
   struct Case {
     int width, height, levels, cell;
     bool pfa;
-    const char* fused;                     // the fusion's switch ("": its default)
-    std::uint64_t fast_cull, pfa_compact;  // dispatches per stereo pair (-1: 2 up to group_cells)
-    int cells;
+    const char* fused;    // the fusion's switch ("": its default)
+    const char* in_cull;  // PFA's step A in the cull's launch ("": its default, on)
+    // Launches per stereo pair: fast_cull, pfa_compact_group, pfa_decide, pfa_accumulate.
+    std::uint64_t fast_cull, pfa_compact, decide, accumulate;
   };
-  constexpr std::uint64_t kByCells = ~std::uint64_t{0};
   const Case cases[] = {
-      {320, 240, 1, 32, true, "", 2, 2, 80},       {320, 240, 1, 16, true, "", 2, 2, 300},
-      {320, 240, 1, 32, false, "", 2, 2, 80},      {256, 200, 2, 32, true, "", 2, 2, 100},
-      {320, 240, 1, 8, true, "", 2, kByCells, 1200},   // above the 512 cells of one work-group
-      {320, 240, 4, 16, true, "", 2, kByCells, 546},   // 4 levels
-      {640, 480, 1, 8, false, "", 2, 0, 4800},         // above both: PFA and compaction on their own
-      {320, 240, 1, 32, true, "off", 0, 0, 80},
+      {320, 240, 1, 32, true, "", "", 2, 2, 0, 0},     // 80 cells
+      {320, 240, 1, 16, true, "", "", 2, 2, 0, 0},     // 300
+      {320, 240, 1, 32, false, "", "", 2, 2, 0, 0},    // 80
+      {256, 200, 2, 32, true, "", "", 2, 2, 0, 0},     // 100
+      {320, 240, 1, 8, true, "", "", 2, 2, 2, 0},      // 1 200: above the 512 of one work-group
+      {320, 240, 4, 16, true, "", "", 2, 2, 2, 0},     // 546, 4 levels
+      {640, 480, 1, 8, false, "", "", 2, 2, 0, 0},     // 4 800, the compaction alone
+      {320, 240, 1, 32, true, "", "off", 2, 2, 0, 0},  // 80: PFA whole in the compaction's group
+      {320, 240, 1, 8, true, "", "off", 2, 0, 2, 2},   // 1 200: pfa_filter's three launches
+      {320, 240, 1, 32, true, "off", "", 0, 0, 0, 0},
   };
   auto cpu = BackendRegistry::instance().create("cpu", {});
   for (const Case& c : cases) {
-    SCOPED_TRACE(std::to_string(c.width) + "x" + std::to_string(c.height) + " levels " + std::to_string(c.levels) +
-                 " cell " + std::to_string(c.cell) + (c.pfa ? " pfa" : " no pfa") + " switch '" + c.fused + "'");
+    SCOPED_TRACE(std::to_string(c.width) + "x" + std::to_string(c.height) + " levels " +
+                 std::to_string(c.levels) + " cell " + std::to_string(c.cell) + (c.pfa ? " pfa" : " no pfa") +
+                 " switches '" + c.fused + "' '" + c.in_cull + "'");
     ScopedEnv fused(b.fused_env, c.fused);
+    ScopedEnv in_cull(b.in_cull_env, c.in_cull);
     BackendOptions options;
     options.profile_kernels = true;
     auto backend = BackendRegistry::instance().create(b.name, options);
@@ -94,18 +103,21 @@ TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
     EXPECT_EQ(std::memcmp(got.matches.data(), want.matches.data(), got.matches.size() * sizeof(StereoMatch)), 0);
     const std::vector<KernelTime> times = backend->kernel_times(true);
     EXPECT_EQ(dispatches_of(times, b.fast_cull), c.fast_cull);
-    const std::uint64_t pfa_compact = c.pfa_compact != kByCells ? c.pfa_compact : c.cells <= b.group_cells ? 2u : 0u;
-    EXPECT_EQ(dispatches_of(times, b.pfa_compact), pfa_compact) << c.cells << " cells";
+    EXPECT_EQ(dispatches_of(times, b.pfa_compact), c.pfa_compact);
+    EXPECT_EQ(dispatches_of(times, "pfa_decide"), c.decide);
+    EXPECT_EQ(dispatches_of(times, "pfa_accumulate"), c.accumulate);
     EXPECT_EQ(dispatches_of(times, b.fast_alone), c.fast_cull > 0 ? 0u : 2u);
   }
-  ScopedEnv bad(b.fused_env, "yes");
-  try {
-    BackendRegistry::instance().create(b.name, {});
-    FAIL() << b.fused_env << "=yes was accepted";
-  } catch (const BackendError& e) {
-    EXPECT_NE(std::string(e.what()).find(std::string(b.fused_env) + " must be on or off, got 'yes'"),
-              std::string::npos)
-        << e.what();
+  for (const char* env : {b.fused_env, b.in_cull_env}) {
+    ScopedEnv bad(env, "yes");
+    try {
+      BackendRegistry::instance().create(b.name, {});
+      ADD_FAILURE() << env << "=yes was accepted";
+    } catch (const BackendError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string(env) + " must be on or off, got 'yes'"),
+                std::string::npos)
+          << e.what();
+    }
   }
 }
 
@@ -153,12 +165,15 @@ TEST_P(FusedDetection, BadArgumentsAreTheSeparateKernelsClearErrors) {
   });
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, FusedDetection,
-                         ::testing::Values(FusedBackend{"opencl", 512, "PORTA_OPENCL_WORK_GROUPS", "PORTA_OPENCL_FUSED_DETECT",
-                                                        "fast_cull_group", "pfa_compact_group", "fast_tiled"},
-                                           FusedBackend{"vulkan", 512, "PORTA_VULKAN_WORK_GROUPS", "PORTA_VULKAN_FUSED_DETECT",
-                                                        "fast_cull", "pfa_compact_group", "fast_tiled"}),
-                         [](const ::testing::TestParamInfo<FusedBackend>& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(
+    Backends, FusedDetection,
+    ::testing::Values(FusedBackend{"opencl", "PORTA_OPENCL_WORK_GROUPS", "PORTA_OPENCL_FUSED_DETECT",
+                                   "PORTA_OPENCL_PFA_IN_CULL", "fast_cull_group", "pfa_compact_group",
+                                   "fast_tiled"},
+                      FusedBackend{"vulkan", "PORTA_VULKAN_WORK_GROUPS", "PORTA_VULKAN_FUSED_DETECT",
+                                   "PORTA_VULKAN_PFA_IN_CULL", "fast_cull", "pfa_compact_group",
+                                   "fast_tiled"}),
+    [](const ::testing::TestParamInfo<FusedBackend>& info) { return std::string(info.param.name); });
 
 }  // namespace
 }  // namespace porta
