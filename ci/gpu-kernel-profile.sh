@@ -32,10 +32,8 @@
 # (PORTA_VULKAN_DEVICE_QUEUES=4), the transfer queue with a frame held only while 2 batches are
 # still to run "hold-2" (PORTA_VULKAN_HOLD_BATCHES=2); on vulkan and opencl, PFA's first step in
 # PFA's own launches rather than the cull's "pfa-apart" (PORTA_VULKAN_PFA_IN_CULL=off
-# PORTA_OPENCL_PFA_IN_CULL=off: frames-*-pfa-apart.txt, kernels-*-pfa-apart.txt); on vulkan, the
-# pyramid fused from other levels than its default "fuse-from" (PORTA_VULKAN_FUSED_PYRAMID=off, on,
-# 2, 3 and 5: frames-*-fuse-from-X.txt and kernels-*-fuse-from-X.txt, cells of more than one
-# level); and "repeat": the default frame times once more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
+# PORTA_OPENCL_PFA_IN_CULL=off: frames-*-pfa-apart.txt, kernels-*-pfa-apart.txt); and "repeat": the
+# default frame times once more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
 # pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
@@ -53,8 +51,8 @@ case "$frames" in '' | *[!0-9]* | 0) say "PORTA_PROFILE_FRAMES must be a whole n
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | pfa-apart | fuse-from | repeat | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 pfa-apart fuse-from repeat none"
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | pfa-apart | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 pfa-apart repeat none"
      exit 1 ;;
   esac
 done
@@ -128,17 +126,6 @@ for cell in "${cells[@]}"; do
       --profile-kernels --json "$out_dir/kernels-$name-pfa-apart.json" \
       >"$out_dir/kernels-$name-pfa-apart.txt" 2>>"$out_dir/bench.log" || status=1
   fi
-  if [[ ",$all," == *",vulkan,"* ]] && variant fuse-from && [ "$levels" -gt 1 ]; then
-    for from in off on 2 3 5; do
-      say "cell $name: vulkan with PORTA_VULKAN_FUSED_PYRAMID=$from"
-      PORTA_VULKAN_FUSED_PYRAMID=$from "$binary" bench --backend vulkan "${common[@]}" "${bench_args[@]}" \
-        --json "$out_dir/frames-$name-fuse-from-$from.json" >"$out_dir/frames-$name-fuse-from-$from.txt" \
-        2>>"$out_dir/bench.log" || status=1
-      PORTA_VULKAN_FUSED_PYRAMID=$from "$binary" bench --backend vulkan "${common[@]}" --profile-kernels \
-        --json "$out_dir/kernels-$name-fuse-from-$from.json" >"$out_dir/kernels-$name-fuse-from-$from.txt" \
-        2>>"$out_dir/bench.log" || status=1
-    done
-  fi
   # vulkan's queue settings, frame times only: "variant environment...".
   for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
     "unheld PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off" \
@@ -198,12 +185,6 @@ fi
       grep -E '^(cpu|cuda|vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
     done
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-pfa-apart.txt" 2>/dev/null
-    for from in off on 2 3 5; do
-      [ -f "$out_dir/frames-$name-fuse-from-$from.txt" ] || continue
-      echo "PORTA_VULKAN_FUSED_PYRAMID=$from:"
-      grep -E '^vulkan' "$out_dir/frames-$name-fuse-from-$from.txt"
-      grep -E "^vulkan,|pyramid|^  all" "$out_dir/kernels-$name-fuse-from-$from.txt"
-    done
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then

@@ -7,7 +7,6 @@
 #include "porta/kernel_checks.hpp"
 #include "vulkan/vk_context.hpp"
 #include "vulkan/vk_runtime.hpp"
-#include "vulkan/vk_types.hpp"
 
 namespace porta::vulkan {
 
@@ -17,19 +16,8 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   work_groups_ = !runtime_->context().cpu_device() && limits.maxComputeWorkGroupInvocations >= 256 &&
                  limits.maxComputeWorkGroupSize[0] >= 256 && limits.maxComputeWorkGroupSize[1] >= 8;
   work_groups_ = checks::env_switch("vulkan", "PORTA_VULKAN_WORK_GROUPS", work_groups_);
-  // The pyramid's small levels in one dispatch on GPUs, where a dispatch per level is a barrier
-  // and a launch for a few thousand pixels; on lavapipe a workgroup per tile costs more than the
-  // dispatches.
-  fused_pyramid_from_ = work_groups_ ? kFusedPyramidFrom : 0;
-  if (const char* env = std::getenv("PORTA_VULKAN_FUSED_PYRAMID"); env != nullptr && *env != '\0') {
-    const std::string value = env;
-    if (value == "on" || value == "off") {
-      fused_pyramid_from_ = value == "on" ? 1 : 0;
-    } else {
-      fused_pyramid_from_ = checks::env_int("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", 1, kMaxLevels - 1,
-                                            fused_pyramid_from_, "on, off or the first level to fuse");
-    }
-  }
+  // Off by default until measured on a GPU (the bytes are the suite's, on lavapipe).
+  fused_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", false);
   // Detection in fewer dispatches (FAST with culling, PFA with compaction): each dispatch and
   // barrier saved is device time between kernels and host time recording them.
   fused_detect_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_DETECT",

@@ -138,11 +138,6 @@ class VulkanBackend final : public Backend {
   /// Whether detect_keypoints fuses its kernels: where work_groups() is on (and the device runs
   /// workgroups of 1024); $PORTA_VULKAN_FUSED_DETECT=on or off overrides.
   bool fused_detect() const { return fused_detect_; }
-  /// Where build_pyramid starts building the levels in one dispatch (fused_pyramid_from_) on GPUs:
-  /// levels 1..3 take a dispatch each, where a tile of level 3 would repeat the most work, and
-  /// levels 4..7 of 8 one more (docs/BENCHMARKS.md).
-  static constexpr int kFusedPyramidFrom = 4;
-  int fused_pyramid_from() const { return fused_pyramid_from_; }
   /// With fused_detect(): whether fast_cull.comp also does PFA's step A (and pfa_compact_group.comp
   /// the rest, with pfa_decide.comp between them above 512 cells), or PFA runs whole in
   /// pfa_compact_group.comp up to 512 cells and as pfa_filter above, as before
@@ -155,10 +150,8 @@ class VulkanBackend final : public Backend {
   /// How many levels build_pyramid_fused.comp builds in one dispatch: 32 x 8 tiles, 8 KiB regions
   /// (its REGION_WORDS * 4).
   checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
-  /// The first level build_pyramid builds in one dispatch with the levels after it
-  /// (build_pyramid_fused.comp), 0 for none: kFusedPyramidFrom where work_groups() is on, 0
-  /// elsewhere; $PORTA_VULKAN_FUSED_PYRAMID=on (1: every level), off (0) or a level from 1 to 11.
-  int fused_pyramid_from_ = 0;
+  /// Whether build_pyramid fuses levels ($PORTA_VULKAN_FUSED_PYRAMID=on; off by default).
+  bool fused_pyramid_ = false;
   bool fused_detect_ = false;
   bool pfa_in_cull_ = true;
   int queues_ = 1;

@@ -77,17 +77,6 @@ TEST(Pyramid, FusedLevelsAreThoseWhoseRegionsFitHandWorked) {
   PyramidLayout empty = layout;
   empty.levels[1].width = 0;
   EXPECT_EQ(checks::fused_pyramid_levels(empty, 32, 8, 1 << 20), 0);
-  // From level 2 on (level 1 built before): a tile of level 3 of 64x16 -> 32x8 -> 16x4 -> 8x2
-  // reads rows 0..3 and columns 0..15 of level 2: 64 bytes. With 64 levels 2 and 3 fuse, with 63
-  // only level 2 (which reads level 1 alone).
-  const PyramidLayout four = PyramidLayout::make({{64, 16}, {32, 8}, {16, 4}, {8, 2}}, 1);
-  EXPECT_EQ(checks::fused_pyramid_levels(four, 32, 8, 64, 2), 3);
-  EXPECT_EQ(checks::fused_pyramid_levels(four, 32, 8, 63, 2), 2);
-  EXPECT_EQ(checks::fused_pyramid_levels(four, 32, 8, 0, 3), 3);
-  // No level `first`, or an empty one.
-  EXPECT_EQ(checks::fused_pyramid_levels(four, 32, 8, 1 << 20, 4), 0);
-  EXPECT_EQ(checks::fused_pyramid_levels(empty, 32, 8, 1 << 20, 2), 0);
-  EXPECT_EQ(checks::fused_pyramid_levels(four, 32, 8, 1 << 20, 0), 0);
 }
 
 // The default pyramid (8 levels at scale 1.2) fuses whole in the GPU shaders' 8 KiB; 12 levels at
