@@ -1,7 +1,6 @@
 // Image kernels of the Vulkan backend: rectification, pyramid construction and the descriptor
 // blur (DESIGN.md §3.1, §3.2, §3.7); shaders rectify.comp, build_pyramid.comp, blur_*.comp.
 // Argument checks mirror the cpu backend's (backends/cpu/image_kernels.cpp).
-#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -29,15 +28,6 @@ struct PyramidFusedParams {  // build_pyramid_fused.comp (parameter buffer)
   std::int32_t table_offset[kMaxLevels];
 };
 static_assert(sizeof(PyramidFusedParams) == 208 + 112 + 48);
-struct PyramidDirectParams {  // build_pyramid_direct.comp (parameter buffer)
-  GlslLevels layout;
-  std::int32_t table_offset[kMaxLevels];
-  std::int32_t first_pixel[kMaxLevels + 1];
-  std::int32_t source, last, pad[2];
-};
-static_assert(sizeof(PyramidDirectParams) == 208 + 48 + 52 + 16);
-/// build_pyramid_direct.comp computes a level from at most this many levels above it.
-constexpr int kDirectPyramidDepth = 3;
 struct BlurParams {  // blur_horizontal.comp, blur_vertical.comp (parameter buffer)
   GlslLevels layout;
   std::int32_t scratch_offset[kMaxLevels];
@@ -69,9 +59,7 @@ void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
       Work::grid(static_cast<std::uint64_t>(dst_plane.width), static_cast<std::uint64_t>(dst_plane.height)));
 }
 
-// §3.2. GPUs (direct_pyramid()): up to three levels per dispatch, each pixel computed from the
-// level three above or nearer through the taps of the levels between (build_pyramid_direct.comp):
-// 8 levels in three dispatches. With $PORTA_VULKAN_FUSED_PYRAMID=on instead: levels 1..m in one dispatch, one workgroup per
+// §3.2. With $PORTA_VULKAN_FUSED_PYRAMID=on: levels 1..m in one dispatch, one workgroup per
 // 32 x 8 tile of them (build_pyramid_fused.comp; m as far as each tile's regions fit in shared
 // memory, for 8 levels at scale 1.2 all of them). The levels after m, and every level by default:
 // one dispatch per level, in order (each reads the level above; barriers between them), 32 x 8
@@ -81,33 +69,6 @@ void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, 
   const int levels = layout.num_levels();
   checks::check_pyramid(kBackend, pyramid, layout, resize_table, level_offset, /*reject_negative_offsets=*/true,
                         kPlaneLimits);
-  if (direct_pyramid_ && !fused_pyramid_ && levels > 2) {
-    // Empty levels come last (sizes never grow): build up to the last non-empty one.
-    int end = 1;
-    while (end < levels && layout.levels[static_cast<std::size_t>(end)].width > 0 &&
-           layout.levels[static_cast<std::size_t>(end)].height > 0)
-      ++end;
-    for (int source = 0; source + 1 < end; source += kDirectPyramidDepth) {
-      PyramidDirectParams params{};
-      params.layout = to_glsl(layout, "build_pyramid");
-      params.source = source;
-      params.last = std::min(source + kDirectPyramidDepth, end - 1);
-      std::int64_t pixels = 0;
-      for (int n = source + 1; n <= params.last; ++n) {
-        params.table_offset[n] = level_offset[static_cast<std::size_t>(n - 1)];
-        params.first_pixel[n] = static_cast<std::int32_t>(pixels);
-        const Plane& level = layout.levels[static_cast<std::size_t>(n)];
-        pixels += static_cast<std::int64_t>(level.width) * level.height;
-        if (pixels > std::numeric_limits<std::int32_t>::max())
-          throw BackendError("vulkan: build_pyramid: levels " + std::to_string(source + 1) + ".." +
-                             std::to_string(params.last) + " have more than 2^31 pixels");
-      }
-      params.first_pixel[params.last + 1] = static_cast<std::int32_t>(pixels);
-      rt().dispatch("build_pyramid_direct", {&pyramid, &resize_table}, params,
-                    Work::items(static_cast<std::uint64_t>(pixels)));
-    }
-    return;
-  }
   int first = 1;  // the first level built one dispatch per level
   if (fused_pyramid_ && levels > 2) {
     const int fused = fused_levels_(layout);

@@ -18,7 +18,6 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   work_groups_ = checks::env_switch("vulkan", "PORTA_VULKAN_WORK_GROUPS", work_groups_);
   // Off by default until measured on a GPU (the bytes are the suite's, on lavapipe).
   fused_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", false);
-  direct_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_DIRECT_PYRAMID", work_groups_);
   // Detection in fewer dispatches (FAST with culling, PFA with compaction): each dispatch and
   // barrier saved is device time between kernels and host time recording them.
   fused_detect_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_DETECT",

@@ -138,11 +138,6 @@ class VulkanBackend final : public Backend {
   /// Whether detect_keypoints fuses its kernels: where work_groups() is on (and the device runs
   /// workgroups of 1024); $PORTA_VULKAN_FUSED_DETECT=on or off overrides.
   bool fused_detect() const { return fused_detect_; }
-  /// Whether build_pyramid computes up to three levels per dispatch straight from the level above
-  /// them (build_pyramid_direct.comp): where work_groups() is on (GPUs), the arithmetic repeated
-  /// costing less than the dispatches and barriers saved; $PORTA_VULKAN_DIRECT_PYRAMID=on or off
-  /// overrides. The same bytes either way.
-  bool direct_pyramid() const { return direct_pyramid_; }
   /// With fused_detect(): whether fast_cull.comp also does PFA's step A (and pfa_compact_group.comp
   /// the rest, with pfa_decide.comp between them above 512 cells), or PFA runs whole in
   /// pfa_compact_group.comp up to 512 cells and as pfa_filter above, as before
@@ -158,7 +153,6 @@ class VulkanBackend final : public Backend {
   /// Whether build_pyramid fuses levels ($PORTA_VULKAN_FUSED_PYRAMID=on; off by default).
   bool fused_pyramid_ = false;
   bool fused_detect_ = false;
-  bool direct_pyramid_ = false;
   bool pfa_in_cull_ = true;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
