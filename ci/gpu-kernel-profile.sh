@@ -32,8 +32,10 @@
 # (PORTA_VULKAN_DEVICE_QUEUES=4), the transfer queue with a frame held only while 2 batches are
 # still to run "hold-2" (PORTA_VULKAN_HOLD_BATCHES=2); on vulkan and opencl, PFA's first step in
 # PFA's own launches rather than the cull's "pfa-apart" (PORTA_VULKAN_PFA_IN_CULL=off
-# PORTA_OPENCL_PFA_IN_CULL=off: frames-*-pfa-apart.txt, kernels-*-pfa-apart.txt); and "repeat": the
-# default frame times once more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
+# PORTA_OPENCL_PFA_IN_CULL=off: frames-*-pfa-apart.txt, kernels-*-pfa-apart.txt); on vulkan, the
+# cull's launch not finishing detection "cull-unfinished" (PORTA_VULKAN_CULL_FINISHES=off:
+# frames-*-cull-unfinished.txt, kernels-*-cull-unfinished.txt); and "repeat": the default frame
+# times once more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
 # pass through.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
@@ -51,8 +53,8 @@ case "$frames" in '' | *[!0-9]* | 0) say "PORTA_PROFILE_FRAMES must be a whole n
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | pfa-apart | repeat | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 pfa-apart repeat none"
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | pfa-apart | cull-unfinished | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 pfa-apart cull-unfinished repeat none"
      exit 1 ;;
   esac
 done
@@ -126,6 +128,15 @@ for cell in "${cells[@]}"; do
       --profile-kernels --json "$out_dir/kernels-$name-pfa-apart.json" \
       >"$out_dir/kernels-$name-pfa-apart.txt" 2>>"$out_dir/bench.log" || status=1
   fi
+  if [[ ",$all," == *",vulkan,"* ]] && variant cull-unfinished; then
+    say "cell $name: vulkan with the cull not finishing detection (PORTA_VULKAN_CULL_FINISHES=off)"
+    PORTA_VULKAN_CULL_FINISHES=off "$binary" bench --backend vulkan "${common[@]}" "${bench_args[@]}" \
+      --json "$out_dir/frames-$name-cull-unfinished.json" >"$out_dir/frames-$name-cull-unfinished.txt" \
+      2>>"$out_dir/bench.log" || status=1
+    PORTA_VULKAN_CULL_FINISHES=off "$binary" bench --backend vulkan "${common[@]}" --profile-kernels \
+      --json "$out_dir/kernels-$name-cull-unfinished.json" >"$out_dir/kernels-$name-cull-unfinished.txt" \
+      2>>"$out_dir/bench.log" || status=1
+  fi
   # vulkan's queue settings, frame times only: "variant environment...".
   for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
     "unheld PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off" \
@@ -179,12 +190,13 @@ fi
     echo "detection in four kernels (PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
-    for v in pfa-apart transfer-queue unheld device-queues hold-2 repeat; do
+    for v in pfa-apart cull-unfinished transfer-queue unheld device-queues hold-2 repeat; do
       [ -f "$out_dir/frames-$name-$v.txt" ] || continue
       echo "$v:"
       grep -E '^(cpu|cuda|vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
     done
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-pfa-apart.txt" 2>/dev/null
+    sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-cull-unfinished.txt" 2>/dev/null
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then

@@ -87,6 +87,13 @@ struct FastCullParams {  // fast_cull.comp (parameter buffer)
   std::int32_t scales[kMaxLevels];
   std::int32_t num_scales, width0, height0, accumulate;
 };
+struct FastCullFinishParams {  // fast_cull_finish.comp (parameter buffer): fast_cull's, then its last
+                               // workgroup's
+  FastCullParams cull;
+  std::int32_t reach, total_cells;
+  std::uint32_t pfa_steps, capacity, count_offset;
+  std::int32_t pad[3];
+};
 struct PfaCompactParams {  // pfa_compact_group.comp (push constants): PFA's, then the compaction's
   PfaStepParams pfa;
   std::uint32_t pfa_steps, capacity, count_offset;
@@ -236,6 +243,10 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   // Without PFA or items, the cell array stands in for the unused bindings (nothing is written there).
   Buffer& sum_map = use_pfa ? scratch("pfa_sum", static_cast<std::size_t>(pixels0) * 4) : cells;
   Buffer& level_map = use_pfa ? scratch("pfa_levels", static_cast<std::size_t>(pixels0) * 4) : cells;
+  // Up to kPfaGroupCells cells (fused_detect_finish()): fast_cull's last workgroup does PFA's other
+  // steps and the compaction (fast_cull_finish.comp), one dispatch in all.
+  const bool finish = fused_detect_finish() && end_cell == total && total >= 1 && total <= kPfaGroupCells &&
+                      (accumulate || !use_pfa);
   if (end_cell > 0) {
     FastCullParams f{};
     f.layout = to_glsl(layout, "fast_crf");
@@ -253,6 +264,28 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
       f.width0 = g.pfa.width0;
       f.height0 = g.pfa.height0;
       f.accumulate = 1;
+    }
+    if (finish) {
+      if (out.count != nullptr &&
+          (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
+        throw BackendError("vulkan: compact_keypoints: count offset " +
+                           std::to_string(out.count_offset_bytes) + " is out of range");
+      const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
+      FastCullFinishParams e{};
+      e.cull = f;
+      e.reach = g.pfa.reach;
+      e.total_cells = total;
+      e.pfa_steps = use_pfa ? kPfaDecide | kPfaApply : 0u;
+      e.capacity = static_cast<std::uint32_t>(capacity);
+      e.count_offset = static_cast<std::uint32_t>(out.count_offset_bytes);
+      // Without PFA or items, the cell array stands in for the unused bindings (nothing is written there).
+      Buffer& rejected = use_pfa ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
+      const Buffer* items = capacity > 0 ? out.items : &cells;
+      Buffer& finished = scratch("fast_cull_finished", 4);  // zero when made; the last workgroup resets it
+      rt().dispatch("fast_cull_finish",
+                    {&pyramid, &lut, &cells, &sum_map, &level_map, &rejected, items, out.count, &finished}, e,
+                    Work::groups(static_cast<std::uint64_t>(groups.groups)));
+      return;
     }
     rt().dispatch("fast_cull", {&pyramid, &lut, &cells, &sum_map, &level_map}, f,
                   Work::groups(static_cast<std::uint64_t>(groups.groups)));

@@ -29,6 +29,7 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
       "vulkan", "PORTA_VULKAN_FENCE_POLL_US", 0, 1000000, runtime_->context().cpu_device() ? 0 : 1000,
       "a time in microseconds")));
   pfa_in_cull_ = checks::env_switch("vulkan", "PORTA_VULKAN_PFA_IN_CULL", true);
+  fused_detect_finish_ = checks::env_switch("vulkan", "PORTA_VULKAN_CULL_FINISHES", true);
   runtime_->set_all_barriers(checks::env_switch("vulkan", "PORTA_VULKAN_ALL_BARRIERS", false));
   if (const char* env = std::getenv("PORTA_VULKAN_HOLD_BATCHES"); env != nullptr && *env != '\0') {
     const std::string value = env;

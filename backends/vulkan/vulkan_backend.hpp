@@ -143,6 +143,11 @@ class VulkanBackend final : public Backend {
   /// pfa_compact_group.comp up to 512 cells and as pfa_filter above, as before
   /// ($PORTA_VULKAN_PFA_IN_CULL=on, the default, or off). The same bytes either way.
   bool pfa_in_cull() const { return pfa_in_cull_; }
+  /// With fused_detect() and pfa_in_cull(): whether detection of up to 512 cells is one dispatch,
+  /// the cull's last workgroup running PFA's other steps and the compaction
+  /// (fast_cull_finish.comp), rather than two ($PORTA_VULKAN_CULL_FINISHES=on, the default, or
+  /// off). The same bytes either way.
+  bool fused_detect_finish() const { return fused_detect_finish_; }
 
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
@@ -154,6 +159,7 @@ class VulkanBackend final : public Backend {
   bool fused_pyramid_ = false;
   bool fused_detect_ = false;
   bool pfa_in_cull_ = true;
+  bool fused_detect_finish_ = true;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };

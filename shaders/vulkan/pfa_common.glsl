@@ -14,6 +14,9 @@
 #ifndef PFA_CELLS
 #define PFA_CELLS
 #endif
+// A shader that declares the buffers and the parameters `p` itself, under these names, defines
+// PFA_DECLARED (fast_cull_finish.comp).
+#ifndef PFA_DECLARED
 layout(std430, set = 0, binding = 0) PFA_CELLS buffer CellsBuffer { uvec2 cells[]; };
 layout(std430, set = 0, binding = 1) PFA_MAPS buffer SumMap { uint sum_map[]; };
 layout(std430, set = 0, binding = 2) PFA_MAPS buffer LevelMap { uint level_map[]; };
@@ -29,6 +32,7 @@ layout(std430, push_constant) uniform Params {
   PFA_EXTRA_PARAMS
 #endif
 } p;
+#endif
 
 // The keypoint of cell i when it is one PFA looks at (response > 0, a level with a scale).
 bool pfa_keypoint(uint i, out uvec2 kp) {

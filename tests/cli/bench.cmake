@@ -113,6 +113,10 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_FUSED_PYRAMID must be on or off, got 'yes'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FUSED_PYRAMID=yes)
+    porta_cli_test(bench_vulkan_cull_finishes_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_CULL_FINISHES must be on or off, got '2'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_cull_finishes_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_CULL_FINISHES=2)
     porta_cli_test(bench_vulkan_all_barriers_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_ALL_BARRIERS must be on or off, got 'always'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)

@@ -1,10 +1,10 @@
 // Backend::detect_keypoints fused on the GPU backends (opencl and vulkan, their work-group
 // kernels forced on so that PoCL and lavapipe run them in CI): FAST with culling and PFA's step A
 // in one launch, PFA's other steps with the compaction in one more (with PFA's step B in a launch
-// between them above 512 cells), checked against the cpu backend byte for byte (keypoints,
-// descriptors, stereo matches) with PFA on and off, cells of 32, 16 and 8 pixels, one, two and four
-// levels, PFA's step A left to PFA's own launches (the *_PFA_IN_CULL switch: PFA whole in the
-// compaction's work-group up to 512 cells, pfa_filter's three launches above) and the fusion
+// between them above 512 cells; on vulkan up to 512 cells, in the cull's last work-group), checked against
+// the cpu backend byte for byte (keypoints, descriptors, stereo matches) with PFA on and off, cells of 32, 16
+// and 8 pixels, one, two and four levels, PFA's step A left to PFA's own launches (the *_PFA_IN_CULL switch:
+// PFA whole in the compaction's work-group up to 512 cells, pfa_filter's three launches above) and the fusion
 // switched off; bad switch values and bad arguments are clear errors. Skips, saying why, where the
 // backend has no device.
 #include <gtest/gtest.h>
@@ -32,9 +32,11 @@ struct FusedBackend {
   const char* work_groups_env;  // forces the GPU kernels on
   const char* fused_env;        // the fusion's own switch
   const char* in_cull_env;      // PFA's step A in the cull's launch
+  const char* finish_env;       // the cull's last work-group finishing detection (vulkan), or nullptr
   const char* fast_cull;        // the kernels' names in kernel_times()
   const char* pfa_compact;
   const char* fast_alone;
+  const char* cull_finish;  // the cull that finishes detection (vulkan), or nullptr
 };
 
 // Its name in ctest's list (gtest would print the struct's bytes, pointers that change per build).
@@ -63,20 +65,24 @@ TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
     bool pfa;
     const char* fused;    // the fusion's switch ("": its default)
     const char* in_cull;  // PFA's step A in the cull's launch ("": its default, on)
-    // Launches per stereo pair: fast_cull, pfa_compact_group, pfa_decide, pfa_accumulate.
+    const char* finish;   // the cull's last work-group finishing detection, where the backend can
+    // Launches per stereo pair where the cull does not finish detection: fast_cull,
+    // pfa_compact_group, pfa_decide, pfa_accumulate.
     std::uint64_t fast_cull, pfa_compact, decide, accumulate;
+    bool finishes;  // up to 512 cells, the cull finishes detection where the backend can
   };
   const Case cases[] = {
-      {320, 240, 1, 32, true, "", "", 2, 2, 0, 0},     // 80 cells
-      {320, 240, 1, 16, true, "", "", 2, 2, 0, 0},     // 300
-      {320, 240, 1, 32, false, "", "", 2, 2, 0, 0},    // 80
-      {256, 200, 2, 32, true, "", "", 2, 2, 0, 0},     // 100
-      {320, 240, 1, 8, true, "", "", 2, 2, 2, 0},      // 1 200: above the 512 of one work-group
-      {320, 240, 4, 16, true, "", "", 2, 2, 2, 0},     // 546, 4 levels
-      {640, 480, 1, 8, false, "", "", 2, 2, 0, 0},     // 4 800, the compaction alone
-      {320, 240, 1, 32, true, "", "off", 2, 2, 0, 0},  // 80: PFA whole in the compaction's group
-      {320, 240, 1, 8, true, "", "off", 2, 0, 2, 2},   // 1 200: pfa_filter's three launches
-      {320, 240, 1, 32, true, "off", "", 0, 0, 0, 0},
+      {320, 240, 1, 32, true, "", "", "", 2, 2, 0, 0, true},      // 80 cells
+      {320, 240, 1, 16, true, "", "", "", 2, 2, 0, 0, true},      // 300
+      {320, 240, 1, 32, false, "", "", "", 2, 2, 0, 0, true},     // 80
+      {256, 200, 2, 32, true, "", "", "", 2, 2, 0, 0, true},      // 100
+      {320, 240, 1, 8, true, "", "", "", 2, 2, 2, 0, false},      // 1 200: above the 512 of one work-group
+      {320, 240, 4, 16, true, "", "", "", 2, 2, 2, 0, false},     // 546, 4 levels
+      {640, 480, 1, 8, false, "", "", "", 2, 2, 0, 0, false},     // 4 800, the compaction alone
+      {320, 240, 1, 32, true, "", "off", "", 2, 2, 0, 0, false},  // 80: PFA whole in the compaction's group
+      {320, 240, 1, 8, true, "", "off", "", 2, 0, 2, 2, false},   // 1 200: pfa_filter's three launches
+      {320, 240, 1, 32, true, "", "", "off", 2, 2, 0, 0, false},  // 80, the cull not finishing
+      {320, 240, 1, 32, true, "off", "", "", 0, 0, 0, 0, false},
   };
   auto cpu = BackendRegistry::instance().create("cpu", {});
   for (const Case& c : cases) {
@@ -85,6 +91,8 @@ TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
                  " switches '" + c.fused + "' '" + c.in_cull + "'");
     ScopedEnv fused(b.fused_env, c.fused);
     ScopedEnv in_cull(b.in_cull_env, c.in_cull);
+    ScopedEnv finish(b.finish_env != nullptr ? b.finish_env : "PORTA_TEST_UNUSED", c.finish);
+    const bool finishes = c.finishes && b.cull_finish != nullptr;
     BackendOptions options;
     options.profile_kernels = true;
     auto backend = BackendRegistry::instance().create(b.name, options);
@@ -102,13 +110,17 @@ TEST_P(FusedDetection, GivesTheCpuBackendsBytesInFewerLaunches) {
     ASSERT_EQ(got.matches.size(), want.matches.size());
     EXPECT_EQ(std::memcmp(got.matches.data(), want.matches.data(), got.matches.size() * sizeof(StereoMatch)), 0);
     const std::vector<KernelTime> times = backend->kernel_times(true);
-    EXPECT_EQ(dispatches_of(times, b.fast_cull), c.fast_cull);
-    EXPECT_EQ(dispatches_of(times, b.pfa_compact), c.pfa_compact);
+    EXPECT_EQ(dispatches_of(times, b.fast_cull), finishes ? 0u : c.fast_cull);
+    EXPECT_EQ(dispatches_of(times, b.pfa_compact), finishes ? 0u : c.pfa_compact);
+    if (b.cull_finish != nullptr) {
+      EXPECT_EQ(dispatches_of(times, b.cull_finish), finishes ? c.fast_cull : 0u);
+    }
     EXPECT_EQ(dispatches_of(times, "pfa_decide"), c.decide);
     EXPECT_EQ(dispatches_of(times, "pfa_accumulate"), c.accumulate);
     EXPECT_EQ(dispatches_of(times, b.fast_alone), c.fast_cull > 0 ? 0u : 2u);
   }
-  for (const char* env : {b.fused_env, b.in_cull_env}) {
+  for (const char* env : {b.fused_env, b.in_cull_env, b.finish_env}) {
+    if (env == nullptr) continue;
     ScopedEnv bad(env, "yes");
     try {
       BackendRegistry::instance().create(b.name, {});
@@ -168,11 +180,11 @@ TEST_P(FusedDetection, BadArgumentsAreTheSeparateKernelsClearErrors) {
 INSTANTIATE_TEST_SUITE_P(
     Backends, FusedDetection,
     ::testing::Values(FusedBackend{"opencl", "PORTA_OPENCL_WORK_GROUPS", "PORTA_OPENCL_FUSED_DETECT",
-                                   "PORTA_OPENCL_PFA_IN_CULL", "fast_cull_group", "pfa_compact_group",
-                                   "fast_tiled"},
+                                   "PORTA_OPENCL_PFA_IN_CULL", nullptr, "fast_cull_group",
+                                   "pfa_compact_group", "fast_tiled", nullptr},
                       FusedBackend{"vulkan", "PORTA_VULKAN_WORK_GROUPS", "PORTA_VULKAN_FUSED_DETECT",
-                                   "PORTA_VULKAN_PFA_IN_CULL", "fast_cull", "pfa_compact_group",
-                                   "fast_tiled"}),
+                                   "PORTA_VULKAN_PFA_IN_CULL", "PORTA_VULKAN_CULL_FINISHES", "fast_cull",
+                                   "pfa_compact_group", "fast_tiled", "fast_cull_finish"}),
     [](const ::testing::TestParamInfo<FusedBackend>& info) { return std::string(info.param.name); });
 
 }  // namespace
