@@ -83,6 +83,19 @@ done
 [ -n "$all" ] || { say "no backend available"; exit 1; }
 
 status=0
+# A variant of cell $name: frame times and per-kernel device time on BACKENDS with the settings
+# (NAME=VALUE words), in frames-$name-SUFFIX.txt and kernels-$name-SUFFIX.txt (and .json).
+variant_run() {
+  local suffix="$1" backends="$2"
+  shift 2
+  say "cell $name: $backends with $*"
+  env "$@" "$binary" bench --backend "$backends" "${common[@]}" "${bench_args[@]}" \
+    --json "$out_dir/frames-$name-$suffix.json" >"$out_dir/frames-$name-$suffix.txt" \
+    2>>"$out_dir/bench.log" || status=1
+  env "$@" "$binary" bench --backend "$backends" "${common[@]}" --profile-kernels \
+    --json "$out_dir/kernels-$name-$suffix.json" >"$out_dir/kernels-$name-$suffix.txt" \
+    2>>"$out_dir/bench.log" || status=1
+}
 for cell in "${cells[@]}"; do
   name="${cell%%:*}"
   read -r size levels modes <<<"${cell#*:}"
@@ -102,40 +115,16 @@ for cell in "${cells[@]}"; do
       >"$out_dir/kernels-$name.txt" 2>>"$out_dir/bench.log" || status=1
   fi
   if [ -n "$timed" ] && variant fused-pyramid; then
-    say "cell $name: $timed with the pyramid in one dispatch (PORTA_*_FUSED_PYRAMID=on)"
-    PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on "$binary" bench --backend "$timed" "${common[@]}" \
-      "${bench_args[@]}" --json "$out_dir/frames-$name-fused.json" >"$out_dir/frames-$name-fused.txt" \
-      2>>"$out_dir/bench.log" || status=1
-    PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on "$binary" bench --backend "$timed" "${common[@]}" \
-      --profile-kernels --json "$out_dir/kernels-$name-fused.json" >"$out_dir/kernels-$name-fused.txt" \
-      2>>"$out_dir/bench.log" || status=1
+    variant_run fused "$timed" PORTA_VULKAN_FUSED_PYRAMID=on PORTA_OPENCL_FUSED_PYRAMID=on
   fi
   if [ -n "$timed" ] && variant unfused-detect; then
-    say "cell $name: $timed with detection in four kernels (PORTA_*_FUSED_DETECT=off)"
-    PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend "$timed" "${common[@]}" \
-      "${bench_args[@]}" --json "$out_dir/frames-$name-unfused-detect.json" \
-      >"$out_dir/frames-$name-unfused-detect.txt" 2>>"$out_dir/bench.log" || status=1
-    PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off "$binary" bench --backend "$timed" "${common[@]}" \
-      --profile-kernels --json "$out_dir/kernels-$name-unfused-detect.json" \
-      >"$out_dir/kernels-$name-unfused-detect.txt" 2>>"$out_dir/bench.log" || status=1
+    variant_run unfused-detect "$timed" PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off
   fi
   if [ -n "$timed" ] && variant pfa-apart; then
-    say "cell $name: $timed with PFA's first step in its own launches (PORTA_*_PFA_IN_CULL=off)"
-    PORTA_VULKAN_PFA_IN_CULL=off PORTA_OPENCL_PFA_IN_CULL=off "$binary" bench --backend "$timed" "${common[@]}" \
-      "${bench_args[@]}" --json "$out_dir/frames-$name-pfa-apart.json" \
-      >"$out_dir/frames-$name-pfa-apart.txt" 2>>"$out_dir/bench.log" || status=1
-    PORTA_VULKAN_PFA_IN_CULL=off PORTA_OPENCL_PFA_IN_CULL=off "$binary" bench --backend "$timed" "${common[@]}" \
-      --profile-kernels --json "$out_dir/kernels-$name-pfa-apart.json" \
-      >"$out_dir/kernels-$name-pfa-apart.txt" 2>>"$out_dir/bench.log" || status=1
+    variant_run pfa-apart "$timed" PORTA_VULKAN_PFA_IN_CULL=off PORTA_OPENCL_PFA_IN_CULL=off
   fi
   if [[ ",$all," == *",vulkan,"* ]] && variant cull-unfinished; then
-    say "cell $name: vulkan with the cull not finishing detection (PORTA_VULKAN_CULL_FINISHES=off)"
-    PORTA_VULKAN_CULL_FINISHES=off "$binary" bench --backend vulkan "${common[@]}" "${bench_args[@]}" \
-      --json "$out_dir/frames-$name-cull-unfinished.json" >"$out_dir/frames-$name-cull-unfinished.txt" \
-      2>>"$out_dir/bench.log" || status=1
-    PORTA_VULKAN_CULL_FINISHES=off "$binary" bench --backend vulkan "${common[@]}" --profile-kernels \
-      --json "$out_dir/kernels-$name-cull-unfinished.json" >"$out_dir/kernels-$name-cull-unfinished.txt" \
-      2>>"$out_dir/bench.log" || status=1
+    variant_run cull-unfinished vulkan PORTA_VULKAN_CULL_FINISHES=off
   fi
   # vulkan's queue settings, frame times only: "variant environment...".
   for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
