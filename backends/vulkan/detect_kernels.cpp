@@ -307,7 +307,7 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
   Buffer& rejected = use_pfa ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
   if (whole_pfa_in_group) {
     g.pfa_steps = kPfaAccumulate | kPfaDecide | kPfaApply;
-  } else if (use_pfa && total > decide_in_group_cells()) {  // step B over the cells, an invocation each
+  } else if (use_pfa && total > kPfaGroupCells) {  // step B over the cells, an invocation each
     rt().dispatch("pfa_decide", {&cells, &sum_map, &level_map, &rejected}, g.pfa,
                   Work::items(static_cast<std::uint64_t>(total)));
     g.pfa_steps = kPfaApply;

@@ -30,8 +30,6 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
       "a time in microseconds")));
   pfa_in_cull_ = checks::env_switch("vulkan", "PORTA_VULKAN_PFA_IN_CULL", true);
   fused_detect_finish_ = checks::env_switch("vulkan", "PORTA_VULKAN_CULL_FINISHES", true);
-  decide_in_group_cells_ = checks::env_int("vulkan", "PORTA_VULKAN_DECIDE_IN_GROUP_CELLS", 0, 1 << 20,
-                                           decide_in_group_cells_, "a cell count");
   runtime_->set_all_barriers(checks::env_switch("vulkan", "PORTA_VULKAN_ALL_BARRIERS", false));
   if (const char* env = std::getenv("PORTA_VULKAN_HOLD_BATCHES"); env != nullptr && *env != '\0') {
     const std::string value = env;

@@ -148,10 +148,6 @@ class VulkanBackend final : public Backend {
   /// (fast_cull_finish.comp), rather than two ($PORTA_VULKAN_CULL_FINISHES=on, the default, or
   /// off). The same bytes either way.
   bool fused_detect_finish() const { return fused_detect_finish_; }
-  /// With pfa_in_cull(): up to how many cells pfa_compact_group.comp runs PFA's step B itself,
-  /// above which it takes a dispatch of its own (pfa_decide.comp): 512 by default,
-  /// $PORTA_VULKAN_DECIDE_IN_GROUP_CELLS (0 to 1 << 20) to measure others.
-  int decide_in_group_cells() const { return decide_in_group_cells_; }
 
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
@@ -164,7 +160,6 @@ class VulkanBackend final : public Backend {
   bool fused_detect_ = false;
   bool pfa_in_cull_ = true;
   bool fused_detect_finish_ = true;
-  int decide_in_group_cells_ = 512;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };

@@ -1,19 +1,12 @@
 // Compaction in one workgroup of COMPACT_THREADS invocations (compact_group.comp,
-// pfa_compact_group.comp, fast_cull_finish.comp): the same output as compact_count/scan/scatter.
-// The including shader declares `cells` (uvec2, readable), `items` (uvec2, writable) and
-// `count_bytes` (uint8_t, writable) and defines COMPACT_THREADS (a multiple of 32). The cells go
-// by in tiles of 4 * COMPACT_THREADS: each invocation counts its 4 cells; 32 invocations each sum
-// the counts of a run of COMPACT_THREADS / 32 invocations, and each of them adds up the runs before
-// its own; every invocation then adds its run's start to the counts before it in the run, which
-// gives where its cells go, and writes them (records at or past `capacity` not written). Four
-// barriers a tile, where a scan over all the invocations takes two per doubling (16 at 256). The
-// tile's total moves the base on. The count goes as a little-endian uint32 to byte `count_offset`.
+// pfa_compact_group.comp): the same output as compact_count/scan/scatter. The including shader
+// declares `cells` (uvec2, readable), `items` (uvec2, writable) and `count_bytes` (uint8_t,
+// writable) and defines COMPACT_THREADS. The cells go by in tiles of 4 * COMPACT_THREADS: each
+// invocation counts its 4 cells, an inclusive prefix sum over the workgroup in shared memory gives
+// where they go, then it writes them (records at or past `capacity` not written); the tile's total
+// moves the base on. The count goes as a little-endian uint32 to byte `count_offset`.
 const uint kCompactPerThread = 4u;
-const uint kCompactRuns = 32u;
-const uint kCompactRun = COMPACT_THREADS / kCompactRuns;  // invocations per run
-shared uint compact_counts[COMPACT_THREADS];
-shared uint compact_run_sums[kCompactRuns];
-shared uint compact_run_starts[kCompactRuns + 1u];  // [kCompactRuns]: the tile's total
+shared uint compact_sums[COMPACT_THREADS];
 
 void compact_in_group(uint total_cells, uint capacity, uint count_offset) {
   const uint t = gl_LocalInvocationID.x;
@@ -27,25 +20,17 @@ void compact_in_group(uint total_cells, uint capacity, uint count_offset) {
       kp[k] = i < total_cells ? cells[i] : uvec2(0u);
       count += kp_response(kp[k]) != 0u ? 1u : 0u;
     }
-    compact_counts[t] = count;
+    compact_sums[t] = count;
     barrier();
-    if (t < kCompactRuns) {
-      uint sum = 0u;
-      for (uint j = 0u; j < kCompactRun; ++j) sum += compact_counts[t * kCompactRun + j];
-      compact_run_sums[t] = sum;
+    for (uint off = 1u; off < COMPACT_THREADS; off <<= 1u) {
+      const uint v = t >= off ? compact_sums[t - off] : 0u;
+      barrier();
+      compact_sums[t] += v;
+      barrier();
     }
-    barrier();
-    if (t <= kCompactRuns) {  // the runs before run t (all of them for t == kCompactRuns)
-      uint start = 0u;
-      for (uint j = 0u; j < t; ++j) start += compact_run_sums[j];
-      compact_run_starts[t] = start;
-    }
-    barrier();
-    const uint run = t / kCompactRun;
-    uint at = base + compact_run_starts[run];
-    for (uint j = run * kCompactRun; j < t; ++j) at += compact_counts[j];
-    const uint tile_total = compact_run_starts[kCompactRuns];
-    barrier();  // every invocation has read the counts before the next tile writes them
+    uint at = base + compact_sums[t] - count;
+    const uint tile_total = compact_sums[COMPACT_THREADS - 1u];
+    barrier();  // every invocation has read the sums before the next tile writes them
     for (uint k = 0u; k < kCompactPerThread; ++k) {
       if (kp_response(kp[k]) == 0u) continue;
       if (at < capacity) items[at] = kp[k];

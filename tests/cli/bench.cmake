@@ -117,11 +117,6 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_CULL_FINISHES must be on or off, got '2'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_cull_finishes_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_CULL_FINISHES=2)
-    porta_cli_test(bench_vulkan_decide_in_group_cells_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_DECIDE_IN_GROUP_CELLS must be a cell count from 0 to 1048576, got 'many'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_decide_in_group_cells_bad_value PROPERTIES ENVIRONMENT
-                         PORTA_VULKAN_DECIDE_IN_GROUP_CELLS=many)
     porta_cli_test(bench_vulkan_all_barriers_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_ALL_BARRIERS must be on or off, got 'always'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
