@@ -48,7 +48,22 @@ constexpr std::uint32_t kCompactBlock = 128;  // cells per invocation of the com
 /// PFA runs in one workgroup (pfa_group) up to this many cells, in three dispatches above: on the
 /// H200 one workgroup took 6 µs for 70 cells against 13 for the three dispatches, but 28 against
 /// 15 for ~1 500 (its steps then loop, each a chain of dependent loads on one multiprocessor).
+/// Likewise in detect_keypoints: up to this many cells PFA's step B runs in the compaction's
+/// workgroup (pfa_compact_group.comp, or fast_cull_finish.comp's last workgroup), above in
+/// pfa_decide.comp's dispatch (on the H100 one workgroup took 22.4 against 5.5 + 9.8 µs for the
+/// ~2 800 cells of 752x480 with 8 levels), while step C and the compaction stay in the workgroup
+/// whatever the count.
 constexpr int kPfaGroupCells = 512;
+
+/// The compaction's checks of its arguments (the count's offset is a uint32 in the shaders);
+/// returns the records the items buffer holds (checks::compact_capacity).
+std::int64_t check_compact(const Buffer& cells, int total_cells, const DeviceList& out) {
+  if (out.count != nullptr &&
+      (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
+    throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
+                       " is out of range");
+  return checks::compact_capacity(kBackend, cells, total_cells, out);
+}
 
 /// fast_crf's checks of its arguments.
 void check_fast(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, const Buffer& responses,
@@ -87,8 +102,8 @@ struct FastCullParams {  // fast_cull.comp (parameter buffer)
   std::int32_t scales[kMaxLevels];
   std::int32_t num_scales, width0, height0, accumulate;
 };
-struct FastCullFinishParams {  // fast_cull_finish.comp (parameter buffer): fast_cull's, then its last
-                               // workgroup's
+// fast_cull_finish.comp (parameter buffer): fast_cull's, then its last workgroup's.
+struct FastCullFinishParams {
   FastCullParams cull;
   std::int32_t reach, total_cells;
   std::uint32_t pfa_steps, capacity, count_offset;
@@ -103,9 +118,6 @@ static_assert(sizeof(PfaCompactParams) <= kMaxPushBytes);
 constexpr std::uint32_t kPfaAccumulate = 1, kPfaDecide = 2, kPfaApply = 4;
 /// fast_cull.comp's workgroup size (its GROUP).
 constexpr int kFastCullGroup = 256;
-/// pfa_compact_group.comp runs PFA's steps A and B up to this many cells (its invocations loop
-/// over them; as kPfaGroupCells); above, fast_cull.comp does step A and pfa_decide.comp step B,
-/// and pfa_compact_group.comp step C and the compaction, whatever the count.
 
 }  // namespace
 
@@ -182,12 +194,8 @@ void VulkanBackend::pfa_filter(Buffer& cells, const CellLayout& cell_layout, con
 // Canonical compaction: per-block counts, a one-invocation scan that also writes the count, then a
 // per-block scatter; the order is the cell order whatever the device.
 void VulkanBackend::compact_keypoints(const Buffer& cells, int total_cells, DeviceList out) {
-  if (out.count != nullptr &&
-      (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
-    throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
-                       " is out of range");
   // Records past the items buffer are not written (the cpu backend would write past its end).
-  const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total_cells, out);
+  const std::int64_t capacity = check_compact(cells, total_cells, out);
   const int total = std::max(total_cells, 0);
 
   // Without items, the cell array stands in for the unused items binding.
@@ -266,11 +274,7 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
       f.accumulate = 1;
     }
     if (finish) {
-      if (out.count != nullptr &&
-          (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
-        throw BackendError("vulkan: compact_keypoints: count offset " +
-                           std::to_string(out.count_offset_bytes) + " is out of range");
-      const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
+      const std::int64_t capacity = check_compact(cells, total, out);
       FastCullFinishParams e{};
       e.cull = f;
       e.reach = g.pfa.reach;
@@ -299,11 +303,7 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
     compact_keypoints(cells, total, out);
     return;
   }
-  if (out.count != nullptr &&
-      (out.count_offset_bytes < 0 || out.count_offset_bytes > std::numeric_limits<std::int32_t>::max()))
-    throw BackendError("vulkan: compact_keypoints: count offset " + std::to_string(out.count_offset_bytes) +
-                       " is out of range");
-  const std::int64_t capacity = checks::compact_capacity(kBackend, cells, total, out);
+  const std::int64_t capacity = check_compact(cells, total, out);
   Buffer& rejected = use_pfa ? scratch("pfa_rejected", static_cast<std::size_t>(total)) : cells;
   if (whole_pfa_in_group) {
     g.pfa_steps = kPfaAccumulate | kPfaDecide | kPfaApply;
