@@ -86,8 +86,9 @@ class OpenClBackend final : public Backend {
   PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
-  /// With fused_detect(): FAST and culling in one launch, PFA and compaction in one more for up to
-  /// 512 cells; otherwise the four kernels' launches.
+  /// With fused_detect(): FAST, culling and PFA's step A in one launch, PFA's other steps and the
+  /// compaction in one more (above 512 cells with pfa_decide between them); otherwise the four
+  /// kernels' launches.
   void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
                         const PyramidLayout& response_layout, const FastParams& fast, const CellLayout& cell_layout,
                         Buffer& cells, const PfaParams* pfa, DeviceList out) override;
@@ -124,10 +125,10 @@ class OpenClBackend final : public Backend {
   /// Whether detect_keypoints fuses its kernels (fast_cull_group, pfa_compact_group): where
   /// work_groups() is on; $PORTA_OPENCL_FUSED_DETECT=on or off overrides.
   bool fused_detect() const { return fused_detect_; }
-  /// With fused_detect(): whether fast_cull_group also does PFA's step A (and pfa_compact_group
-  /// the rest, with pfa_decide between them above kPfaCompactGroupCells cells), or PFA runs whole
-  /// in pfa_compact_group up to that many cells and as pfa_filter above, as before `PFA in the
-  /// cull` ($PORTA_OPENCL_PFA_IN_CULL=on, the default, or off). The same bytes either way.
+  /// With fused_detect(): whether fast_cull_group also does PFA's step A, pfa_compact_group the
+  /// rest (with pfa_decide between them above kPfaCompactGroupCells cells); or, as before that,
+  /// PFA runs whole in pfa_compact_group up to that many cells and as pfa_filter above
+  /// ($PORTA_OPENCL_PFA_IN_CULL=on, the default, or off). The same bytes either way.
   bool pfa_in_cull() const { return pfa_in_cull_; }
   /// Whether build_pyramid builds levels 1..m in one launch (build_pyramid_fused): by default
   /// where work_groups() is on; $PORTA_OPENCL_FUSED_PYRAMID=on or off overrides.

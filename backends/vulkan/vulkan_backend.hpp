@@ -107,8 +107,10 @@ class VulkanBackend final : public Backend {
   PORTA_BACKEND_QUEUE_OVERRIDES;
 
   PORTA_BACKEND_KERNEL_OVERRIDES;
-  /// With fused_detect(): FAST and culling in one dispatch (fast_cull.comp), PFA and compaction in
-  /// one more up to 512 cells (pfa_compact_group.comp); otherwise the four kernels' dispatches.
+  /// With fused_detect(): FAST, culling and PFA's step A in one dispatch (fast_cull.comp), PFA's
+  /// other steps and the compaction in one more (pfa_compact_group.comp; above 512 cells with
+  /// pfa_decide.comp between them), or all of it in one up to 512 cells
+  /// (fast_cull_finish.comp); otherwise the four kernels' dispatches.
   void detect_keypoints(const Buffer& pyramid, const PyramidLayout& layout, const Buffer& lut, Buffer& responses,
                         const PyramidLayout& response_layout, const porta::FastParams& fast,
                         const CellLayout& cell_layout, Buffer& cells, const porta::PfaParams* pfa,
@@ -138,9 +140,9 @@ class VulkanBackend final : public Backend {
   /// Whether detect_keypoints fuses its kernels: where work_groups() is on (and the device runs
   /// workgroups of 1024); $PORTA_VULKAN_FUSED_DETECT=on or off overrides.
   bool fused_detect() const { return fused_detect_; }
-  /// With fused_detect(): whether fast_cull.comp also does PFA's step A (and pfa_compact_group.comp
-  /// the rest, with pfa_decide.comp between them above 512 cells), or PFA runs whole in
-  /// pfa_compact_group.comp up to 512 cells and as pfa_filter above, as before
+  /// With fused_detect(): whether fast_cull.comp also does PFA's step A, pfa_compact_group.comp the
+  /// rest (with pfa_decide.comp between them above 512 cells); or, as before that, PFA runs whole
+  /// in pfa_compact_group.comp up to 512 cells and as pfa_filter above
   /// ($PORTA_VULKAN_PFA_IN_CULL=on, the default, or off). The same bytes either way.
   bool pfa_in_cull() const { return pfa_in_cull_; }
   /// With fused_detect() and pfa_in_cull(): whether detection of up to 512 cells is one dispatch,
