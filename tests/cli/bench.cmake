@@ -89,6 +89,10 @@ frames/s"
                    STDERR "opencl: PORTA_OPENCL_FUSED_PYRAMID must be on or off, got '1'"
                    ARGS bench ${tiny} --backend opencl --no-peer)
     set_tests_properties(cli.bench_opencl_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_FUSED_PYRAMID=1)
+    porta_cli_test(bench_opencl_pfa_in_cull_bad_value EXIT 1
+                   STDERR "opencl: PORTA_OPENCL_PFA_IN_CULL must be on or off, got 'maybe'"
+                   ARGS bench ${tiny} --backend opencl --no-peer)
+    set_tests_properties(cli.bench_opencl_pfa_in_cull_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_PFA_IN_CULL=maybe)
   endif()
   # porta_cl_enqueue_bench (bench/opencl) names a device it cannot find and exits 2.
   if(TARGET porta_cl_enqueue_bench)
@@ -113,6 +117,10 @@ frames/s"
                    STDERR "vulkan: PORTA_VULKAN_FUSED_PYRAMID must be on or off, got 'yes'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
     set_tests_properties(cli.bench_vulkan_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FUSED_PYRAMID=yes)
+    porta_cli_test(bench_vulkan_pfa_in_cull_bad_value EXIT 1
+                   STDERR "vulkan: PORTA_VULKAN_PFA_IN_CULL must be on or off, got 'maybe'"
+                   ARGS bench ${tiny} --backend vulkan --no-peer)
+    set_tests_properties(cli.bench_vulkan_pfa_in_cull_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_PFA_IN_CULL=maybe)
     porta_cli_test(bench_vulkan_cull_finishes_bad_value EXIT 1
                    STDERR "vulkan: PORTA_VULKAN_CULL_FINISHES must be on or off, got '2'"
                    ARGS bench ${tiny} --backend vulkan --no-peer)
