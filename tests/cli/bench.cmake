@@ -7,6 +7,19 @@
 # porta_cli_test() and porta_cli_dir come from features.cmake, which tests/CMakeLists.txt includes
 # after this file (alphabetical order), so the tests are declared at the end of the directory.
 
+# A backend switch (an environment variable read when the backend is made) set to a value it does
+# not take: bench exits 1 naming the backend, the variable and the value. The test is named for the
+# variable: PORTA_VULKAN_QUEUES=9 is cli.bench_vulkan_queues_bad_value. `tiny` is the caller's.
+function(porta_bench_bad_switch variable value expect)
+  string(REGEX MATCH "^PORTA_([A-Z]+)_(.+)$" matched "${variable}")
+  string(TOLOWER "${CMAKE_MATCH_1}" backend)
+  string(TOLOWER "${CMAKE_MATCH_2}" switch)
+  porta_cli_test(bench_${backend}_${switch}_bad_value EXIT 1
+                 STDERR "${backend}: ${variable} ${expect}, got '${value}'"
+                 ARGS bench ${tiny} --backend ${backend} --no-peer)
+  set_tests_properties(cli.bench_${backend}_${switch}_bad_value PROPERTIES ENVIRONMENT ${variable}=${value})
+endfunction()
+
 function(porta_bench_cli_tests)
   set(tiny --frames 3 --warmup 1 --resolutions 320x240 --levels 1 --modes detect)
   file(MAKE_DIRECTORY ${porta_cli_dir}/bench_no_data)
@@ -77,22 +90,10 @@ frames/s"
   porta_cli_test(bench_profile_kernels_takes_no_value EXIT 1 STDERR "option --profile-kernels takes no value"
                  ARGS bench --profile-kernels=yes)
   if(TARGET porta_backend_opencl)  # PoCL in CI; the value is checked when the backend is made
-    porta_cli_test(bench_opencl_work_groups_bad_value EXIT 1
-                   STDERR "opencl: PORTA_OPENCL_WORK_GROUPS must be on or off, got 'maybe'"
-                   ARGS bench ${tiny} --backend opencl --no-peer)
-    set_tests_properties(cli.bench_opencl_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_WORK_GROUPS=maybe)
-    porta_cli_test(bench_opencl_queues_bad_value EXIT 1
-                   STDERR "opencl: PORTA_OPENCL_QUEUES must be a queue count from 1 to 8, got '0'"
-                   ARGS bench ${tiny} --backend opencl --no-peer)
-    set_tests_properties(cli.bench_opencl_queues_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_QUEUES=0)
-    porta_cli_test(bench_opencl_fused_pyramid_bad_value EXIT 1
-                   STDERR "opencl: PORTA_OPENCL_FUSED_PYRAMID must be on or off, got '1'"
-                   ARGS bench ${tiny} --backend opencl --no-peer)
-    set_tests_properties(cli.bench_opencl_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_FUSED_PYRAMID=1)
-    porta_cli_test(bench_opencl_pfa_in_cull_bad_value EXIT 1
-                   STDERR "opencl: PORTA_OPENCL_PFA_IN_CULL must be on or off, got 'maybe'"
-                   ARGS bench ${tiny} --backend opencl --no-peer)
-    set_tests_properties(cli.bench_opencl_pfa_in_cull_bad_value PROPERTIES ENVIRONMENT PORTA_OPENCL_PFA_IN_CULL=maybe)
+    porta_bench_bad_switch(PORTA_OPENCL_WORK_GROUPS maybe "must be on or off")
+    porta_bench_bad_switch(PORTA_OPENCL_QUEUES 0 "must be a queue count from 1 to 8")
+    porta_bench_bad_switch(PORTA_OPENCL_FUSED_PYRAMID 1 "must be on or off")
+    porta_bench_bad_switch(PORTA_OPENCL_PFA_IN_CULL maybe "must be on or off")
   endif()
   # porta_cl_enqueue_bench (bench/opencl) names a device it cannot find and exits 2.
   if(TARGET porta_cl_enqueue_bench)
@@ -105,46 +106,16 @@ frames/s"
                          ENVIRONMENT "PORTA_OPENCL_DEVICE=no such device")
   endif()
   if(TARGET porta_backend_vulkan)  # lavapipe in CI
-    porta_cli_test(bench_vulkan_work_groups_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_WORK_GROUPS must be on or off, got 'yes'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_work_groups_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_WORK_GROUPS=yes)
-    porta_cli_test(bench_vulkan_queues_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_QUEUES must be a queue count from 1 to 8, got '9'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_QUEUES=9)
-    porta_cli_test(bench_vulkan_fused_pyramid_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_FUSED_PYRAMID must be on or off, got 'yes'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_fused_pyramid_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FUSED_PYRAMID=yes)
-    porta_cli_test(bench_vulkan_pfa_in_cull_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_PFA_IN_CULL must be on or off, got 'maybe'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_pfa_in_cull_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_PFA_IN_CULL=maybe)
-    porta_cli_test(bench_vulkan_cull_finishes_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_CULL_FINISHES must be on or off, got '2'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_cull_finishes_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_CULL_FINISHES=2)
-    porta_cli_test(bench_vulkan_all_barriers_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_ALL_BARRIERS must be on or off, got 'always'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_all_barriers_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_ALL_BARRIERS=always)
-    porta_cli_test(bench_vulkan_fence_poll_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_FENCE_POLL_US must be a time in microseconds from 0 to 1000000, got '1ms'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_fence_poll_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_FENCE_POLL_US=1ms)
-    porta_cli_test(bench_vulkan_hold_batches_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_HOLD_BATCHES must be on, off or a batch count from 1 to 4, got '5'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_hold_batches_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_HOLD_BATCHES=5)
-    porta_cli_test(bench_vulkan_device_queues_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_DEVICE_QUEUES must be a count from 1 to 8, got 'two'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_device_queues_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_DEVICE_QUEUES=two)
-    porta_cli_test(bench_vulkan_params_memory_bad_value EXIT 1
-                   STDERR "vulkan: PORTA_VULKAN_PARAMS_MEMORY must be host or device, got 'bar'"
-                   ARGS bench ${tiny} --backend vulkan --no-peer)
-    set_tests_properties(cli.bench_vulkan_params_memory_bad_value PROPERTIES ENVIRONMENT PORTA_VULKAN_PARAMS_MEMORY=bar)
+    porta_bench_bad_switch(PORTA_VULKAN_WORK_GROUPS yes "must be on or off")
+    porta_bench_bad_switch(PORTA_VULKAN_QUEUES 9 "must be a queue count from 1 to 8")
+    porta_bench_bad_switch(PORTA_VULKAN_FUSED_PYRAMID yes "must be on or off")
+    porta_bench_bad_switch(PORTA_VULKAN_PFA_IN_CULL maybe "must be on or off")
+    porta_bench_bad_switch(PORTA_VULKAN_CULL_FINISHES 2 "must be on or off")
+    porta_bench_bad_switch(PORTA_VULKAN_ALL_BARRIERS always "must be on or off")
+    porta_bench_bad_switch(PORTA_VULKAN_FENCE_POLL_US 1ms "must be a time in microseconds from 0 to 1000000")
+    porta_bench_bad_switch(PORTA_VULKAN_HOLD_BATCHES 5 "must be on, off or a batch count from 1 to 4")
+    porta_bench_bad_switch(PORTA_VULKAN_DEVICE_QUEUES two "must be a count from 1 to 8")
+    porta_bench_bad_switch(PORTA_VULKAN_PARAMS_MEMORY bar "must be host or device")
   endif()
   porta_cli_test(bench_frames_zero EXIT 1
                  STDERR "portaslam bench: option --frames expects a count in \\[1, 1000000\\], got 0" ARGS bench --frames 0)
