@@ -98,7 +98,7 @@ fi
 
 # ---- 3. Runs --------------------------------------------------------------------------------------
 # run_slam NAME ARGS...: one `portaslam run` on the sequence; summary in OUT_DIR/NAME.json, log in
-# OUT_DIR/NAME.log, outputs in WORK/NAME, GPU samples in OUT_DIR/NAME.gpu.csv (timed runs only).
+# OUT_DIR/NAME.log, frames.csv and mapping.csv in OUT_DIR/NAME.*.csv, outputs in WORK/NAME, GPU samples in OUT_DIR/NAME.gpu.csv (timed runs only).
 sampler=""
 start_sampler() {
   sampler=""
@@ -117,6 +117,7 @@ run_slam() {
     ${PORTA_SLAM_RUN_ARGS:-} "$@" >"$out_dir/$name.log" 2>&1
   local rc=$?
   cp "$work/$name/frames.csv" "$out_dir/$name.frames.csv" 2>/dev/null  # per frame: inliers, stage times
+  cp "$work/$name/mapping.csv" "$out_dir/$name.mapping.csv" 2>/dev/null  # per keyframe: mapping's steps
   if [ $rc != 0 ]; then
     say "$name FAILED (exit $rc):"
     tail -5 "$out_dir/$name.log"

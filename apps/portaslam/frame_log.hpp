@@ -1,11 +1,13 @@
 // `portaslam run`'s per-frame log, frames.csv: one line per frame with what tracking found and
-// where the frame's time went, for the frames the stage table's medians and tails summarise.
+// where the frame's time went, for the frames the stage table's medians and tails summarise; and
+// its per-keyframe log, mapping.csv: where local mapping's time went, keyframe by keyframe.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "porta/slam/local_mapper.hpp"
 #include "porta/slam/system.hpp"
 
 namespace porta::app {
@@ -15,5 +17,9 @@ namespace porta::app {
 std::string frame_log_csv(std::size_t first_frame, const std::vector<slam::FrameTimes>& times,
                           const std::vector<slam::TrackingResult>& results,
                           const std::vector<std::int64_t>& input_wait_ns);
+
+/// The CSV text of mapping.csv: a header line, then one line per keyframe local mapping processed,
+/// in order (LocalMapper::times()).
+std::string mapping_log_csv(const std::vector<slam::MappingTimes>& times);
 
 }  // namespace porta::app

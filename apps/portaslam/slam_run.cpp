@@ -275,6 +275,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   slam::write_trajectory(keyframes_path, system.keyframe_trajectory(), slam::TrajectoryFormat::tum);
   slam::write_file_atomically((fs::path(options.out) / "frames.csv").string(),
                               frame_log_csv(options.first, system.frame_times(), system.results(), reader.input_wait_ns()));
+  slam::write_file_atomically((fs::path(options.out) / "mapping.csv").string(), mapping_log_csv(system.mapper().times()));
   slam::MapCloud cloud;  // for the export and the top view: the map the counts describe
   {
     std::lock_guard<std::mutex> lock(system.map().mutex);
@@ -414,7 +415,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       std::printf("\nATE not computed: %s\n", e.what());
     }
   }
-  std::printf("\nwrote %s, %s (+ trajectory_times.txt), %s, frames.csv\n", tum_path.c_str(), kitti_path.c_str(),
+  std::printf("\nwrote %s, %s (+ trajectory_times.txt), %s, frames.csv, mapping.csv\n", tum_path.c_str(), kitti_path.c_str(),
               keyframes_path.c_str());
   MapOutputOptions map_outputs;
   map_outputs.export_path = options.export_map;
@@ -491,7 +492,8 @@ std::string slam_run_options_usage() {
          "                      (mapping completes after each keyframe; same input, same bytes)\n"
          "  --out DIR           output folder (default portaslam-run): trajectory_tum.txt,\n"
          "                      trajectory_kitti.txt + trajectory_times.txt, keyframes_tum.txt, summary.json,\n"
-         "                      frames.csv (per frame: inliers, mapping queue, stage times in ms)\n"
+         "                      frames.csv (per frame: inliers, mapping queue, stage times in ms),\n"
+         "                      mapping.csv (per keyframe: local mapping's step times in ms)\n"
          "  --first N           first frame (default 0)\n"
          "  --frames N          number of frames (default: all)\n"
          "  --levels N          pyramid levels (default 8)\n"

@@ -171,6 +171,13 @@ bool LocalMapper::spread_over_pool() const {
 void LocalMapper::process(KeyFrame* keyframe) {
   MappingTimes times;
   cpu::ThreadPool* const pool = spread_over_pool() ? pool_.get() : nullptr;
+  times.keyframe_id = keyframe->id;
+  times.spread = pool != nullptr;
+  {
+    std::lock_guard lock(queue_mutex_);
+    times.queued = queue_.size();
+    times.interval_ns = keyframe_interval_ns_;
+  }
   const auto start = Clock::now();
   const std::int64_t paused_at_start = paused_ns_;
   auto step = Clock::now();
@@ -187,7 +194,7 @@ void LocalMapper::process(KeyFrame* keyframe) {
   {
     std::unique_lock lock(map_.mutex);
     if (!keyframe->bad) {
-      const std::vector<MapPoint*> created = mapping::link_keyframe_points(map_, lock, keyframe, pyramid_);
+      const std::vector<MapPoint*> created = mapping::link_keyframe_points(map_, lock, keyframe, pyramid_, pool);
       recent_points_.insert(recent_points_.end(), created.begin(), created.end());
     }
   }
@@ -213,7 +220,7 @@ void LocalMapper::process(KeyFrame* keyframe) {
     {
       std::unique_lock lock(map_.mutex);
       points_fused_ +=
-          static_cast<std::uint64_t>(mapping::fuse_with_neighbours(map_, lock, keyframe, settings_, pyramid_));
+          static_cast<std::uint64_t>(mapping::fuse_with_neighbours(map_, lock, keyframe, settings_, pyramid_, pool));
     }
     times.fuse_ns = work_ns();
   }
@@ -235,7 +242,6 @@ void LocalMapper::process(KeyFrame* keyframe) {
                                        realtime_ ? settings_.realtime_bundle_adjustment_tolerance
                                                  : SlamSettings::kDeterministicBundleAdjustmentTolerance);
       times.bundle_adjustment_ran = true;
-      times.bundle_adjustment_spread = pool != nullptr;
     }
     times.bundle_adjustment_ns = work_ns();
 

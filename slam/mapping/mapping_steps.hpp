@@ -37,11 +37,12 @@ inline int descriptor_distance(const Descriptor& a, const Descriptor& b) { retur
 
 /// Step 1 (caller holds `lock` on Map::mutex): makes sure every point tracking matched (following
 /// merges) is observed by `keyframe`, refreshes the points' normals, depth ranges and descriptors,
-/// and updates the keyframe's covisibility edges. Every kLinkChunk points it hands the lock to a
-/// waiting tracker (Map::yield_to_waiters). Returns the points `keyframe` created
+/// and updates the keyframe's covisibility edges. Between chunks of points it hands the lock to a
+/// waiting tracker (Map::yield_to_waiters). With a `pool` of more than one thread the refreshes run
+/// on it (the same values) and the chunks are larger. Returns the points `keyframe` created
 /// (first_keyframe_id == keyframe->id), which the recent-point culling watches.
 std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
-                                            const ScalePyramid& pyramid);
+                                            const ScalePyramid& pyramid, cpu::ThreadPool* pool = nullptr);
 
 /// Step 2 (caller holds the lock): ORB-SLAM2's MapPointCulling over `recent` as of keyframe
 /// `current_keyframe_id`; culled points go bad, points old enough leave the list. Returns the
@@ -59,16 +60,20 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
 
 /// Step 4 (`lock` holds Map::mutex): ORB-SLAM2's SearchInNeighbors. Between target keyframes it
 /// hands the lock to a waiting tracker (Map::yield_to_waiters), as ORB-SLAM2's per-object locks
-/// let tracking run beside it. Returns the number of points merged into another (Map::replace).
+/// let tracking run beside it. With a `pool` of more than one thread the searches and the points'
+/// refreshes run on it (the same map). Returns the number of points merged into another
+/// (Map::replace).
 int fuse_with_neighbours(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
-                         const SlamSettings& settings, const ScalePyramid& pyramid);
+                         const SlamSettings& settings, const ScalePyramid& pyramid, cpu::ThreadPool* pool = nullptr);
 
 /// Projects `points` into `keyframe` and fuses each with the best-matching feature in a window of
 /// radius_factor * scale of its predicted level (ORB-SLAM2's ORBmatcher::Fuse). Caller holds the
 /// lock. Returns the number of points merged (Map::replace); `added`, when given, counts the
-/// observations added to features without a point.
+/// observations added to features without a point. With a `pool` of more than one thread the
+/// points' searches run on it first (fusion.cpp says why the result is the same).
 int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, const StereoCamera& camera,
-                     const ScalePyramid& pyramid, double radius_factor = 3.0, int* added = nullptr);
+                     const ScalePyramid& pyramid, double radius_factor = 3.0, int* added = nullptr,
+                     cpu::ThreadPool* pool = nullptr);
 
 /// Step 5 (locks the map itself): local bundle adjustment around `keyframe`; keyframe 0 is never
 /// moved. With a `pool` of more than one thread the solver's loops run on it (the same result).

@@ -11,7 +11,8 @@
 //
 // Locking: per neighbour, the poses and the unmatched feature lists are copied under Map::mutex,
 // the search and triangulation run without it (features are immutable), and the points are
-// created under it after checking that both features are still unmatched.
+// created under it after checking that both features are still unmatched; the same acquisition
+// copies the next neighbour's poses and lists.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -347,22 +348,45 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
   SearchedAhead ahead;
   if (pool != nullptr && pool->size() > 1)
     ahead = search_ahead(map, keyframe, neighbours, camera, pyramid, *pool);
-  int created = 0;
-  for (std::size_t n = 0; n < neighbours.size(); ++n) {
-    if (n > 0 && should_stop && should_stop()) break;
-    KeyFrame* other = neighbours[n];
+  // What the pass reads of one pair under the lock: the poses and the unmatched features.
+  struct Snapshot {
+    std::uint64_t generation = 0;
     SE3 T_1w, T_2w;
     std::vector<int> free1, free2;
-    std::uint64_t generation = 0;
-    {
-      std::lock_guard lock(map.mutex);
-      if (keyframe->bad || other->bad) continue;
-      generation = map.correction_generation;
-      T_1w = keyframe->T_cw;
-      T_2w = other->T_cw;
-      free1 = free_features(*keyframe);
-      free2 = free_features(*other);
+  };
+  // Caller holds the lock; false: either keyframe is bad.
+  const auto take_snapshot = [&](KeyFrame* other, Snapshot& snapshot) {
+    if (keyframe->bad || other->bad) return false;
+    snapshot.generation = map.correction_generation;
+    snapshot.T_1w = keyframe->T_cw;
+    snapshot.T_2w = other->T_cw;
+    snapshot.free1 = free_features(*keyframe);
+    snapshot.free2 = free_features(*other);
+    return true;
+  };
+  // The next neighbour's snapshot is taken under the lock that creates this one's points: one
+  // acquisition per neighbour instead of two (tracking keeps the lock for its whole frame, so each
+  // acquisition may wait for one). `should_stop` is asked before that lock, not after it.
+  enum class Next { none, taken, bad };
+  Next next = Next::none;
+  Snapshot snapshot;
+  int created = 0;
+  for (std::size_t n = 0; n < neighbours.size(); ++n) {
+    KeyFrame* other = neighbours[n];
+    if (next == Next::bad) {
+      next = Next::none;
+      continue;
     }
+    if (next == Next::none) {
+      if (n > 0 && should_stop && should_stop()) break;
+      std::lock_guard lock(map.mutex);
+      if (!take_snapshot(other, snapshot)) continue;
+    }
+    next = Next::none;
+    const SE3 T_1w = snapshot.T_1w, T_2w = snapshot.T_2w;
+    const std::uint64_t generation = snapshot.generation;
+    const std::vector<int> free1 = std::move(snapshot.free1);
+    std::vector<int> free2 = std::move(snapshot.free2);
     const Eigen::Vector3d center1 = T_1w.inverse().translation();
     const Eigen::Vector3d center2 = T_2w.inverse().translation();
     // Stereo: a baseline shorter than the camera's own gives nothing its stereo depth does not.
@@ -389,21 +413,25 @@ int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& set
       }
     }
 
+    const bool last = n + 1 == neighbours.size() || (should_stop && should_stop());
     std::lock_guard lock(map.mutex);
     // A loop correction moved the keyframes meanwhile: these points are in the old map's frame.
-    if (keyframe->bad || other->bad || map.correction_generation != generation) continue;
-    for (const NewPoint& candidate : new_points) {
-      const auto s1 = static_cast<std::size_t>(candidate.feature1);
-      const auto s2 = static_cast<std::size_t>(candidate.feature2);
-      if (!feature_is_free(*keyframe, s1) || !feature_is_free(*other, s2)) continue;
-      MapPoint* point = map.add_point(candidate.position, keyframe, keyframe->frame_id);
-      Map::add_observation(point, keyframe, candidate.feature1);
-      Map::add_observation(point, other, candidate.feature2);
-      point->update_descriptor();
-      point->update_normal_and_depth(pyramid);
-      recent.push_back(point);
-      ++created;
+    if (!keyframe->bad && !other->bad && map.correction_generation == generation) {
+      for (const NewPoint& candidate : new_points) {
+        const auto s1 = static_cast<std::size_t>(candidate.feature1);
+        const auto s2 = static_cast<std::size_t>(candidate.feature2);
+        if (!feature_is_free(*keyframe, s1) || !feature_is_free(*other, s2)) continue;
+        MapPoint* point = map.add_point(candidate.position, keyframe, keyframe->frame_id);
+        Map::add_observation(point, keyframe, candidate.feature1);
+        Map::add_observation(point, other, candidate.feature2);
+        point->update_descriptor();
+        point->update_normal_and_depth(pyramid);
+        recent.push_back(point);
+        ++created;
+      }
     }
+    if (last) break;
+    next = take_snapshot(neighbours[n + 1], snapshot) ? Next::taken : Next::bad;
   }
   return created;
 }

@@ -1,4 +1,4 @@
-# ci/gpu-slam.sh, ci/gpu.sh and ci/gpu-kernel-profile.sh refuse a bad setting before they build
+# ci/gpu-slam.sh, ci/gpu-slam-variants.sh, ci/gpu.sh and ci/gpu-kernel-profile.sh refuse a bad setting before they build
 # anything (label cli). Each numeric setting of gpu-slam.sh, given a word, exits 2 naming the
 # setting. The GPU runs themselves need a GPU machine.
 find_program(PORTA_BASH bash)
@@ -35,3 +35,28 @@ foreach(case "PORTA_PROFILE_VARIANTS=sometimes|PORTA_PROFILE_VARIANTS names 'som
   set_tests_properties(cli.gpu_kernel_profile_refuses_${setting} PROPERTIES LABELS cli TIMEOUT 30
                        PASS_REGULAR_EXPRESSION "gpu-kernel-profile.sh: ${message}")
 endforeach()
+
+# ci/gpu-slam-variants.sh: rounds that are no number, no variant, a variant whose script is missing;
+# bench/slam_variants.py on a folder without runs.
+foreach(case "rounds|PORTA_SLAM_ROUNDS=x|PORTA_SLAM_VARIANTS=a=ci/gpu-slam.sh|ROUNDS must be a whole number from 1 to 99, got 'x'"
+             "no_variant|PORTA_SLAM_ROUNDS=2|PORTA_SLAM_VARIANTS=|no variants"
+             "missing_script|PORTA_SLAM_ROUNDS=2|PORTA_SLAM_VARIANTS=a=no/such.sh|bad variant 'a=no/such.sh'")
+  string(REPLACE "|" ";" parts "${case}")
+  list(GET parts 0 id)
+  list(GET parts 1 rounds)
+  list(GET parts 2 variants)
+  list(GET parts 3 message)
+  add_test(NAME cli.gpu_slam_variants_refuses_${id}
+           COMMAND ${CMAKE_COMMAND} -E env ${rounds} ${variants} ${PORTA_BASH}
+                   ${CMAKE_SOURCE_DIR}/ci/gpu-slam-variants.sh ${porta_cli_dir}/gpu_slam_variants_refused)
+  set_tests_properties(cli.gpu_slam_variants_refuses_${id} PROPERTIES LABELS cli TIMEOUT 30
+                       PASS_REGULAR_EXPRESSION "gpu-slam-variants.sh: ${message}")
+endforeach()
+find_package(Python3 COMPONENTS Interpreter QUIET)
+if(Python3_Interpreter_FOUND)
+  file(MAKE_DIRECTORY ${porta_cli_dir}/slam_variants_empty)
+  add_test(NAME cli.slam_variants_summary_without_runs
+           COMMAND ${Python3_EXECUTABLE} ${CMAKE_SOURCE_DIR}/bench/slam_variants.py ${porta_cli_dir}/slam_variants_empty)
+  set_tests_properties(cli.slam_variants_summary_without_runs PROPERTIES LABELS cli TIMEOUT 30
+                       PASS_REGULAR_EXPRESSION "no runs \\(NAME-ROUND/fast-\\*-1\\.json\\) in ")
+endif()

@@ -57,6 +57,12 @@ add_test(NAME cli.run_deterministic_twice_same_bytes
                  -P ${CMAKE_CURRENT_LIST_DIR}/slam_determinism.cmake)
 set_tests_properties(cli.run_deterministic_twice_same_bytes PROPERTIES LABELS cli TIMEOUT 600)
 
+# The per-frame and per-keyframe logs, frames.csv and mapping.csv (slam_run_logs.cmake).
+add_test(NAME cli.run_frame_and_mapping_logs
+         COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/run-logs
+                 -P ${CMAKE_CURRENT_LIST_DIR}/slam_run_logs.cmake)
+set_tests_properties(cli.run_frame_and_mapping_logs PROPERTIES LABELS cli TIMEOUT 300)
+
 # Rendered EuRoC layout read back by the EuRoC reader (ground truth from the rendered CSV) and tracked.
 add_test(NAME cli.run_rendered_room_euroc_layout
          COMMAND ${CMAKE_COMMAND} -DPORTASLAM=$<TARGET_FILE:portaslam> -DWORK=${porta_cli_dir}/room-euroc

@@ -147,7 +147,12 @@ class TrackingStandIn {
   TrackingStandIn(const SyntheticScene& scene, Map& map, LocalMapper& mapper)
       : scene_(scene), map_(map), mapper_(mapper) {}
 
-  /// `duplicate`: a scene point that gets a second, new map point instead of the existing one.
+  /// For insert()'s `duplicate`: every scene point of even index gets a new map point (the others
+  /// keep the keyframe covisible with those before it).
+  static constexpr int kDuplicateEven = -2;
+
+  /// `duplicate`: a scene point that gets a second, new map point instead of the existing one (or
+  /// kDuplicateEven).
   KeyFrame* insert(std::size_t k, const SE3& T_cw, int duplicate = -1) {
     KeyFrame* keyframe = nullptr;
     {
@@ -161,7 +166,7 @@ class TrackingStandIn {
         const int j = scene_.truth[k][i];
         if (j < 0 || !f.has_depth(i) || f.depth_m[i] > test_settings().close_depth_m()) continue;
         MapPoint* point = resolve(j);
-        if (point == nullptr || j == duplicate) {
+        if (point == nullptr || j == duplicate || (duplicate == kDuplicateEven && j % 2 == 0)) {
           point = map_.add_point(frame.unproject_stereo(i, kCamera), keyframe, frame.id);
           known_[j] = point;
         }

@@ -31,6 +31,10 @@ namespace porta::slam {
 /// Time spent per keyframe in each step (nanoseconds; pauses for tracking excluded), for the
 /// end-of-run statistics.
 struct MappingTimes {
+  std::uint64_t keyframe_id = 0;
+  std::size_t queued = 0;           ///< keyframes waiting behind this one when it was taken
+  std::int64_t interval_ns = 0;     ///< between the last two keyframes inserted when it was taken (0: none yet)
+  bool spread = false;              ///< triangulation and BA ran on the mapping pool
   std::int64_t process_ns = 0;      ///< link points, update connections
   std::int64_t cull_points_ns = 0;
   std::int64_t triangulate_ns = 0;
@@ -39,7 +43,6 @@ struct MappingTimes {
   std::int64_t cull_keyframes_ns = 0;
   std::int64_t total_ns = 0;
   bool bundle_adjustment_ran = false;     ///< local BA ran (not skipped: keyframes waiting)
-  bool bundle_adjustment_spread = false;  ///< its loops ran on the mapping pool
 };
 
 class LocalMapper {

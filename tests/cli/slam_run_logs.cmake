@@ -1,0 +1,65 @@
+# `portaslam run`'s per-frame and per-keyframe logs (docs/USER_GUIDE.md, "Where the time goes"):
+# frames.csv has a line per frame, mapping.csv a line per keyframe local mapping processed, in
+# keyframe order, every field of its columns, and local mapping's steps add up within its total.
+# Run as a script by run.cmake: cmake -DPORTASLAM=... -DWORK=... -P slam_run_logs.cmake
+if(NOT CMAKE_SCRIPT_MODE_FILE)
+  return()
+endif()
+file(REMOVE_RECURSE ${WORK})
+file(MAKE_DIRECTORY ${WORK})
+
+foreach(args "render;--count;40;--out;seq;--quiet"
+             "run;--dataset;kitti;seq;--mode;deterministic;--mapping-threads;2;--out;run;--quiet")
+  execute_process(COMMAND ${PORTASLAM} ${args} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err
+                  WORKING_DIRECTORY ${WORK})
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "portaslam ${args}: exit ${rc}:\n${out}${err}")
+  endif()
+endforeach()
+if(NOT out MATCHES "frames 40, tracked 40, lost 0; keyframes ([0-9]+)")
+  message(FATAL_ERROR "run: no summary line in:\n${out}")
+endif()
+set(keyframes ${CMAKE_MATCH_1})
+
+file(STRINGS ${WORK}/run/frames.csv frame_lines)
+list(LENGTH frame_lines n)
+if(NOT n EQUAL 41)
+  message(FATAL_ERROR "frames.csv: ${n} lines, expected a header and 40 frames")
+endif()
+
+file(STRINGS ${WORK}/run/mapping.csv lines)
+list(POP_FRONT lines header)
+set(columns "keyframe,queued,interval_ms,spread,process_ms,cull_points_ms,triangulation_ms,fusion_ms,ba_ran,ba_ms,cull_keyframes_ms,total_ms")
+if(NOT header STREQUAL columns)
+  message(FATAL_ERROR "mapping.csv header: '${header}', expected '${columns}'")
+endif()
+list(LENGTH lines processed)
+# Every keyframe in the map was processed; culled ones were too.
+if(processed LESS keyframes OR processed LESS 3)
+  message(FATAL_ERROR "mapping.csv: ${processed} keyframes, the map has ${keyframes}")
+endif()
+set(ms "[0-9]+\\.[0-9][0-9][0-9]")
+set(previous -1)
+foreach(line IN LISTS lines)
+  # Deterministic with two mapping threads: nothing queued behind, every keyframe on the pool.
+  if(NOT line MATCHES "^([0-9]+),0,${ms},1,(${ms}),(${ms}),(${ms}),(${ms}),[01],(${ms}),(${ms}),(${ms})$")
+    message(FATAL_ERROR "mapping.csv: bad line '${line}'")
+  endif()
+  if(NOT CMAKE_MATCH_1 GREATER previous)
+    message(FATAL_ERROR "mapping.csv: keyframe ${CMAKE_MATCH_1} after ${previous}")
+  endif()
+  set(previous ${CMAKE_MATCH_1})
+  # The steps' sum (microseconds, from the 3-decimal ms) is at most the total, give or take the six
+  # fields' rounding.
+  set(sum 0)
+  foreach(i 2 3 4 5 6 7)
+    string(REPLACE "." "" us "${CMAKE_MATCH_${i}}")
+    math(EXPR sum "${sum} + ${us}")
+  endforeach()
+  string(REPLACE "." "" total "${CMAKE_MATCH_8}")
+  math(EXPR total_and_rounding "${total} + 3")
+  if(sum GREATER total_and_rounding)
+    message(FATAL_ERROR "mapping.csv: '${line}': the steps sum to ${sum} us, more than the total ${total}")
+  endif()
+endforeach()
+message(STATUS "frames.csv 40 frames; mapping.csv ${processed} keyframes (the map keeps ${keyframes})")
