@@ -34,7 +34,7 @@ struct MappingTimes {
   std::uint64_t keyframe_id = 0;
   std::size_t queued = 0;           ///< keyframes waiting behind this one when it was taken
   std::int64_t interval_ns = 0;     ///< between the last two keyframes inserted when it was taken (0: none yet)
-  bool spread = false;              ///< triangulation and BA ran on the mapping pool
+  bool spread = false;              ///< linking, triangulation, fusion and BA ran on the mapping pool
   std::int64_t process_ns = 0;      ///< link points, update connections
   std::int64_t cull_points_ns = 0;
   std::int64_t triangulate_ns = 0;
@@ -101,9 +101,9 @@ class LocalMapper {
   void pause_point();
   /// Takes the oldest queued keyframe (nullptr: none) and clears the bundle-adjustment abort flag.
   KeyFrame* pop_keyframe();
-  /// Whether this keyframe's triangulation and bundle adjustment use the pool: always in the
-  /// deterministic mode, in the realtime one while mapping is slower than keyframes arrive. Their
-  /// results are the same either way.
+  /// Whether this keyframe's linking, triangulation, fusion and bundle adjustment use the pool:
+  /// always in the deterministic mode, in the realtime one while mapping is slower than keyframes
+  /// arrive. Their results are the same either way.
   bool spread_over_pool() const;
 
   const SlamSettings settings_;
