@@ -98,7 +98,8 @@ fi
 
 # ---- 3. Runs --------------------------------------------------------------------------------------
 # run_slam NAME ARGS...: one `portaslam run` on the sequence; summary in OUT_DIR/NAME.json, log in
-# OUT_DIR/NAME.log, frames.csv and mapping.csv in OUT_DIR/NAME.*.csv, outputs in WORK/NAME, GPU samples in OUT_DIR/NAME.gpu.csv (timed runs only).
+# OUT_DIR/NAME.log, frames.csv and mapping.csv in OUT_DIR/NAME.*.csv, outputs in WORK/NAME, GPU
+# samples in OUT_DIR/NAME.gpu.csv (timed runs only).
 sampler=""
 start_sampler() {
   sampler=""

@@ -122,9 +122,8 @@ TEST(Mapping, FusionMergesADuplicatedPoint) {
 }
 
 // Every keyframe after the first makes a new point for half the scene points it sees, so fusion merges
-// hundreds of them, some into a survivor of an earlier merge of the same pass (whose descriptor
-// changed). With three threads the searches run ahead in parallel; the map must be the one-thread
-// map, merge for merge.
+// over a hundred of them. With three threads the searches run ahead in parallel; the map must be the
+// one-thread map, merge for merge, descriptor for descriptor.
 TEST(Mapping, ParallelFusionMergesAsOneThreadDoes) {
   SceneSpec spec;
   spec.keyframes = 4;
