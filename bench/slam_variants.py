@@ -59,7 +59,11 @@ def main():
         if not folder.is_dir() or not match:
             continue
         for json_path in sorted(folder.glob("fast-*-1.json")):
-            runs.append((match.group(1), int(match.group(2)), run_row(json_path)))
+            try:
+                runs.append((match.group(1), int(match.group(2)), run_row(json_path)))
+            except (OSError, ValueError, KeyError, TypeError, csv.Error) as e:
+                sys.exit(f"bench/slam_variants.py: {json_path}: not a portaslam run summary "
+                         f"({type(e).__name__}: {e})")
     if not runs:
         sys.exit(f"no runs (NAME-ROUND/fast-*-1.json) in {out}")
     columns = [c for c in runs[0][2]] + [c for c in sorted({c for _, _, r in runs for c in r}) if c not in runs[0][2]]

@@ -37,6 +37,15 @@ for v in "${variants[@]}"; do
     say "bad variant '$v': expected NAME=SCRIPT[:VAR=VALUE...] with a plain NAME and an existing SCRIPT"
     exit 2
   fi
+  if [ "$rest" != "$script" ]; then
+    IFS=: read -r -a settings <<<"${rest#*:}"
+    for setting in "${settings[@]}"; do
+      if ! [[ "$setting" =~ ^[A-Za-z_][A-Za-z0-9_]*= ]]; then
+        say "bad variant '$v': setting '$setting' is not VAR=VALUE"
+        exit 2
+      fi
+    done
+  fi
 done
 mkdir -p "$out" && out="$(cd "$out" && pwd)" || exit 1
 export PORTA_SLAM_WORK="${PORTA_SLAM_WORK:-$out/work}" PORTA_SLAM_REPEATS=1

@@ -36,11 +36,13 @@ foreach(case "PORTA_PROFILE_VARIANTS=sometimes|PORTA_PROFILE_VARIANTS names 'som
                        PASS_REGULAR_EXPRESSION "gpu-kernel-profile.sh: ${message}")
 endforeach()
 
-# ci/gpu-slam-variants.sh: rounds that are no number, no variant, a variant whose script is missing;
-# bench/slam_variants.py on a folder without runs.
+# ci/gpu-slam-variants.sh: rounds that are no number, no variant, a variant whose script is missing,
+# a setting that is not VAR=VALUE; bench/slam_variants.py on a folder without runs and on a
+# truncated run summary.
 foreach(case "rounds|PORTA_SLAM_ROUNDS=x|PORTA_SLAM_VARIANTS=a=ci/gpu-slam.sh|ROUNDS must be a whole number from 1 to 99, got 'x'"
              "no_variant|PORTA_SLAM_ROUNDS=2|PORTA_SLAM_VARIANTS=|no variants"
-             "missing_script|PORTA_SLAM_ROUNDS=2|PORTA_SLAM_VARIANTS=a=no/such.sh|bad variant 'a=no/such.sh'")
+             "missing_script|PORTA_SLAM_ROUNDS=2|PORTA_SLAM_VARIANTS=a=no/such.sh|bad variant 'a=no/such.sh'"
+             "setting|PORTA_SLAM_ROUNDS=2|PORTA_SLAM_VARIANTS=a=ci/gpu-slam.sh:FOO|bad variant 'a=ci/gpu-slam.sh:FOO': setting 'FOO' is not VAR=VALUE")
   string(REPLACE "|" ";" parts "${case}")
   list(GET parts 0 id)
   list(GET parts 1 rounds)
@@ -57,6 +59,12 @@ if(Python3_Interpreter_FOUND)
   file(MAKE_DIRECTORY ${porta_cli_dir}/slam_variants_empty)
   add_test(NAME cli.slam_variants_summary_without_runs
            COMMAND ${Python3_EXECUTABLE} ${CMAKE_SOURCE_DIR}/bench/slam_variants.py ${porta_cli_dir}/slam_variants_empty)
+  file(MAKE_DIRECTORY ${porta_cli_dir}/slam_variants_truncated/a-1)
+  file(WRITE ${porta_cli_dir}/slam_variants_truncated/a-1/fast-cuda-1.json "{\"stages_ms\": {")
+  add_test(NAME cli.slam_variants_summary_truncated_json
+           COMMAND ${Python3_EXECUTABLE} ${CMAKE_SOURCE_DIR}/bench/slam_variants.py ${porta_cli_dir}/slam_variants_truncated)
+  set_tests_properties(cli.slam_variants_summary_truncated_json PROPERTIES LABELS cli TIMEOUT 30
+                       PASS_REGULAR_EXPRESSION "fast-cuda-1\\.json: not a portaslam run summary \\(JSONDecodeError")
   set_tests_properties(cli.slam_variants_summary_without_runs PROPERTIES LABELS cli TIMEOUT 30
                        PASS_REGULAR_EXPRESSION "no runs \\(NAME-ROUND/fast-\\*-1\\.json\\) in ")
 endif()
