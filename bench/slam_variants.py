@@ -22,6 +22,7 @@ def run_row(json_path):
         "frames/s": summary["throughput"]["frames_per_s"],
         "median ms": stages["frame"]["median"],
         "mean ms": stages["frame"]["mean"],
+        "tracking ms": stages["tracking"]["median"],
         "mapping wait ms": stages["mapping wait"]["mean"],
         "CPU s/frame": summary["throughput"]["cpu_s_per_frame"],
         "keyframes": summary["keyframes"],
@@ -29,6 +30,11 @@ def run_row(json_path):
         "lost": summary["lost"],
         "ATE m": (summary.get("ate") or {}).get("rmse_m", float("nan")),
     }
+    # Tracking's hold on the map's lock, means per frame (the last two from trees that release it).
+    for name, stage in (("map lock wait ms", "map lock wait"), ("unlocked ms", "without map lock"),
+                        ("retake ms", "map lock retake")):
+        if stage in stages:
+            row[name] = stages[stage]["mean"]
     mapping = json_path.with_name(json_path.name.replace(".json", ".mapping.csv"))
     if mapping.is_file():
         rows = list(csv.DictReader(mapping.open()))

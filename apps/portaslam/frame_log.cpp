@@ -21,7 +21,7 @@ std::string frame_log_csv(std::size_t first_frame, const std::vector<slam::Frame
   std::string out =
       "frame,state,keyframe,motion_model,motion_hypotheses,relocalised,last_frame_points,predicted_inliers,"
       "motion_inliers,local_map_inliers,mapping_queue,input_wait_ms,frontend_ms,tracking_ms,map_wait_ms,"
-      "motion_ms,local_map_ms,keyframe_ms,mapping_wait_ms,frame_ms\n";
+      "unlocked_ms,relock_wait_ms,motion_ms,local_map_ms,keyframe_ms,mapping_wait_ms,frame_ms\n";
   const std::size_t n = std::max({times.size(), results.size(), input_wait_ns.size()});
   std::ostringstream line;
   for (std::size_t i = 0; i < n; ++i) {
@@ -42,10 +42,10 @@ std::string frame_log_csv(std::size_t first_frame, const std::vector<slam::Frame
     }
     if (i < results.size()) {
       const slam::TrackingResult& r = results[i];
-      line << ',' << ms(r.map_wait_ns) << ',' << ms(r.track_motion_ns) << ',' << ms(r.track_local_map_ns) << ','
+      line << ',' << ms(r.map_wait_ns) << ',' << ms(r.unlocked_ns) << ',' << ms(r.relock_wait_ns) << ',' << ms(r.track_motion_ns) << ',' << ms(r.track_local_map_ns) << ','
            << ms(r.keyframe_ns);
     } else {
-      line << ",,,,";
+      line << ",,,,,,";
     }
     line << ',' << (i < times.size() ? ms(times[i].mapping_wait_ns) : "") << ','
          << (i < times.size() ? ms(times[i].total_ns) : "") << '\n';

@@ -87,6 +87,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.mapping_threads = options.mapping_threads;
   settings.bundle_adjustment_every = options.ba_every;
   settings.keyframes_while_mapping = options.keyframes_while_mapping;
+  settings.tracking_releases_map_lock = options.tracking_releases_map_lock;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.keyframe_queue_limit = options.keyframe_queue;
   settings.projection_on_backend = options.projection_on_backend;
@@ -286,7 +287,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   // Per-stage timing.
   std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, triangulate_ns, fuse_ns, ba_ns;
-  std::vector<std::int64_t> map_wait_ns, motion_ns, track_local_ns, keyframe_ns, mapping_wait_ns;
+  std::vector<std::int64_t> map_wait_ns, unlocked_ns, relock_wait_ns, motion_ns, track_local_ns, keyframe_ns, mapping_wait_ns;
   const bool stereo_separated = system.frontend_in_flight() == 1;  // pipelined frames are not profiled
   for (const slam::FrameTimes& t : system.frame_times()) {
     frontend_ns.push_back(t.frontend_ns);
@@ -297,6 +298,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   }
   for (const slam::TrackingResult& r : system.results()) {
     map_wait_ns.push_back(r.map_wait_ns);
+    unlocked_ns.push_back(r.unlocked_ns);
+    relock_wait_ns.push_back(r.relock_wait_ns);
     motion_ns.push_back(r.track_motion_ns);
     track_local_ns.push_back(r.track_local_map_ns);
     keyframe_ns.push_back(r.keyframe_ns);
@@ -312,6 +315,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"frontend", quantiles(frontend_ns)},         {"stereo", quantiles(stereo_ns)},
       {"tracking", quantiles(tracking_ns)},         {"map lock wait", quantiles(map_wait_ns)},
       {"track motion", quantiles(motion_ns)},       {"track local map", quantiles(track_local_ns)},
+      {"without map lock", quantiles(unlocked_ns)}, {"map lock retake", quantiles(relock_wait_ns)},
       {"keyframe", quantiles(keyframe_ns)},         {"local map", quantiles(local_map_ns)},
       {"triangulation", quantiles(triangulate_ns)}, {"fusion", quantiles(fuse_ns)},
       {"BA", quantiles(ba_ns)},                     {"input wait", quantiles(reader.input_wait_ns())},
@@ -341,7 +345,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     }
     std::printf("%-17s %s\n", name.c_str(), format_ms(q).c_str());
   }
-  std::printf("(frontend includes stereo matching%s;\n tracking = map lock wait + track motion + track local map + keyframe;"
+  std::printf("(frontend includes stereo matching%s;\n tracking = map lock wait + track motion + track local map + keyframe,"
+              " the track steps including the time without the map lock and waiting to retake it;"
               " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe;"
               " input wait = the frames' loop waiting for the next pair from the reader, outside frame)\n",
               stereo_separated ? "" : " and is the host's share: the device works on the next pair while one is tracked",
@@ -483,6 +488,10 @@ std::string slam_run_options_usage() {
          "                      realtime: a keyframe the scene needs is made while mapping is busy\n"
          "                      and none waits (default on; off: only when mapping is idle, as\n"
          "                      ORB-SLAM2)\n"
+         "  --tracking-map-lock steps|frame\n"
+         "                      realtime: tracking lets the map's lock go while it computes on\n"
+         "                      copies, its pose optimisations and projection matching (default\n"
+         "                      steps), or holds it for the whole frame (frame, as ORB-SLAM2)\n"
          "  --projection-match WHERE\n"
          "                      backend (default: the backend's projection-match kernel) or host:\n"
          "                      where tracking matches map points to the frame; same matches\n"
@@ -534,6 +543,12 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
       throw CliError("--keyframes-while-mapping takes on or off, got '" + value + "'");
     }
     options.keyframes_while_mapping = value == "on";
+  } else if (option == "--tracking-map-lock") {
+    const std::string value = cursor.value(option);
+    if (value != "steps" && value != "frame") {
+      throw CliError("--tracking-map-lock takes steps or frame, got '" + value + "'");
+    }
+    options.tracking_releases_map_lock = value == "steps";
   } else if (option == "--ba-every") {
     options.ba_every = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentEvery);
   } else if (option == "--ba-tolerance") {

@@ -222,7 +222,7 @@ int accept_local_matches(Frame& frame, const std::vector<ProjectedPoint>& points
       continue;
     }
     const auto best = static_cast<std::size_t>(r.best_index);
-    if (already_matched(frame, r.best_index)) continue;
+    if (points[i].point->bad || already_matched(frame, r.best_index)) continue;
     if (features.has_depth(best)) {
       const double radius = queries[i].radius_q8 / 256.0;
       if (std::abs(points[i].u_right - features.u_right[best]) > radius) continue;
@@ -233,10 +233,9 @@ int accept_local_matches(Frame& frame, const std::vector<ProjectedPoint>& points
   return matches;
 }
 
-int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m) {
+FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m) {
   const FrameFeatures& features = *frame.features;
-  std::vector<optim::PoseObservation> observations;
-  std::vector<std::size_t> feature_of;
+  FramePoseProblem problem;
   for (std::size_t i = 0; i < features.size(); ++i) {
     frame.outlier[i] = false;
     const MapPoint* point = frame.points[i];
@@ -249,15 +248,22 @@ int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry, double ste
                         static_cast<double>(features.depth_m[i]) <= stereo_depth_limit_m;
     o.u_right = stereo ? features.u_right[i] : -1.0;
     o.sigma2 = optim::level_sigma2(features.level[i], geometry.pyramid.scale_factor);
-    observations.push_back(o);
-    feature_of.push_back(i);
+    problem.observations.push_back(o);
+    problem.feature_of.push_back(i);
   }
-  const optim::PoseOptimizationResult result =
-      optim::optimize_pose(geometry.camera, frame.T_cw, observations);
+  return problem;
+}
+
+int apply_frame_pose(Frame& frame, const FramePoseProblem& problem, const optim::PoseOptimizationResult& result) {
   if (!result.optimized) return 0;
   frame.T_cw = result.T_cw;
-  for (std::size_t k = 0; k < feature_of.size(); ++k) frame.outlier[feature_of[k]] = !result.inlier[k];
+  for (std::size_t k = 0; k < problem.feature_of.size(); ++k) frame.outlier[problem.feature_of[k]] = !result.inlier[k];
   return result.num_inliers;
+}
+
+int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m) {
+  const FramePoseProblem problem = frame_pose_problem(frame, geometry, stereo_depth_limit_m);
+  return apply_frame_pose(frame, problem, optim::optimize_pose(geometry.camera, frame.T_cw, problem.observations));
 }
 
 int discard_outliers(Frame& frame) {

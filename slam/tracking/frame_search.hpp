@@ -1,6 +1,7 @@
 // Tracking's matching steps (after ORB-SLAM2's ORBmatcher, written from its description): map
 // points projected into the current frame and matched by descriptor in a window, and the pose-only
-// optimisation over the frame's matches. Internal to slam/tracking; all of it runs under Map::mutex.
+// optimisation over the frame's matches. Internal to slam/tracking; all of it runs under Map::mutex,
+// except optim::optimize_pose on a FramePoseProblem (a copy) and the projection matcher's kernel.
 #pragma once
 
 #include <cstdint>
@@ -9,6 +10,7 @@
 
 #include "porta/slam/frame.hpp"
 #include "porta/slam/map.hpp"
+#include "porta/slam/optim/pose_optimization.hpp"
 #include "porta/slam/projection_matcher.hpp"
 #include "porta/slam/stereo_camera.hpp"
 
@@ -58,13 +60,29 @@ void build_local_queries(const std::vector<ProjectedPoint>& points, double th, c
 /// Applies the host-side checks to the projection-match results in query order: best distance <=
 /// TH_HIGH, best < 0.8 * second, feature not matched yet, stereo right-column within the window.
 /// Fills frame.points; returns the number of new matches.
+/// A point that local mapping culled or merged since it was projected (tracking released the map's
+/// lock for the kernel) is not accepted.
 int accept_local_matches(Frame& frame, const std::vector<ProjectedPoint>& points,
                          const std::vector<ProjectionQuery>& queries,
                          const std::vector<ProjectionResult>& results);
 
-/// Pose-only optimisation over every matched feature of the frame (optim/pose_optimization.hpp):
-/// sets frame.T_cw and frame.outlier; returns the inliers. Features whose stereo depth exceeds
-/// `stereo_depth_limit_m` count by their left-image position only (monocular observations).
+/// The pose-only optimisation's input, copied from the map: one observation per matched feature.
+struct FramePoseProblem {
+  std::vector<optim::PoseObservation> observations;
+  std::vector<std::size_t> feature_of;  ///< the frame's feature of each observation
+};
+
+/// Copies the frame's matches into a pose problem (needs Map::mutex) and clears frame.outlier.
+/// Features whose stereo depth exceeds `stereo_depth_limit_m` count by their left-image position
+/// only (monocular observations).
+FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m);
+
+/// Applies optim::optimize_pose's result on `problem`: sets frame.T_cw and frame.outlier; returns
+/// the inliers (0, pose unchanged, when it did not optimise).
+int apply_frame_pose(Frame& frame, const FramePoseProblem& problem, const optim::PoseOptimizationResult& result);
+
+/// Pose-only optimisation over every matched feature of the frame (optim/pose_optimization.hpp),
+/// all three steps above under the lock: sets frame.T_cw and frame.outlier; returns the inliers.
 int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry,
                         double stereo_depth_limit_m = std::numeric_limits<double>::infinity());
 

@@ -1,7 +1,9 @@
 // Tracking after ORB-SLAM2's stereo Tracking (written from its description); see tracker.hpp.
 //
 // One track() call holds Map::mutex from start to end: every step reads or writes map objects, and
-// local mapping must not move points under a pose optimisation. Every loop that decides something
+// local mapping must not move points under a pose optimisation. With
+// release_map_lock_while_computing (the realtime mode) it lets the lock go while it computes on
+// copies (without_map_lock): the pose optimisations and the projection matcher's kernel. Every loop that decides something
 // runs over feature indices or id-ordered containers, so the same frames give the same bits.
 #include "porta/slam/tracker.hpp"
 
@@ -100,6 +102,9 @@ struct Tracker::Impl {
   int search_local_points(Frame& frame);
   bool need_new_keyframe(const Frame& frame) const;
   KeyFrame* create_keyframe(Frame& frame);
+  int optimize_pose(Frame& frame);
+  template <class Work>
+  bool without_map_lock(Frame& frame, Work&& work);
 
   const SlamSettings settings;
   Map& map;
@@ -128,6 +133,13 @@ struct Tracker::Impl {
   std::vector<tracking::ProjectedPoint> projected;
   std::vector<ProjectionQuery> queries;
   std::vector<Descriptor> query_descriptors;
+  // While track() runs: the lock it holds, which it may release (release_map_lock_while_computing),
+  // and its result, which counts the time without the lock and waiting to take it back.
+  std::unique_lock<std::mutex>* map_lock = nullptr;
+  TrackingResult* timed = nullptr;
+  bool release_map_lock = false;
+  bool map_moved = false;  // a loop correction moved the map while this frame released the lock
+  std::function<void()> unlocked_hook;
   std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
   std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
   std::string lost_reason;
@@ -168,6 +180,48 @@ bool Tracker::Impl::initialize(Frame& frame, TrackingResult& result) {
   return true;
 }
 
+// ---- Work without the map's lock ----------------------------------------------------------------
+
+// Runs `work`, which touches no map object, with the map's lock released when allowed, and takes
+// the lock back before local mapping's next long step (Map::lock_first). Returns false when a loop
+// correction moved the map meanwhile: what `work` computed from copies made before is stale, and
+// the frame's pose has been moved with its reference keyframe (as update_last_frame moves the last
+// frame), for the caller to compute the step again.
+template <class Work>
+bool Tracker::Impl::without_map_lock(Frame& frame, Work&& work) {
+  if (!release_map_lock || map_lock == nullptr || timed == nullptr) {
+    work();
+    return true;
+  }
+  const std::uint64_t generation = map.correction_generation;
+  KeyFrame* anchor = good_or_ancestor(frame.reference_keyframe);
+  const SE3 anchor_T_cw = anchor != nullptr ? anchor->T_cw : SE3::Identity();
+  map_lock->unlock();
+  const auto start = std::chrono::steady_clock::now();
+  work();
+  if (unlocked_hook) unlocked_hook();
+  timed->unlocked_ns += elapsed_ns(start);
+  const auto wait_start = std::chrono::steady_clock::now();
+  *map_lock = map.lock_first();
+  timed->relock_wait_ns += elapsed_ns(wait_start);
+  if (map.correction_generation == generation) return true;
+  map_moved = true;
+  if (anchor != nullptr) frame.T_cw = frame.T_cw * anchor_T_cw.inverse() * anchor->T_cw;
+  return false;
+}
+
+// The frame's pose-only optimisation, solved without the lock on a copy of its matches' positions.
+int Tracker::Impl::optimize_pose(Frame& frame) {
+  tracking::FramePoseProblem problem = tracking::frame_pose_problem(frame, geometry, stereo_depth_limit);
+  optim::PoseOptimizationResult solved;
+  const auto solve = [&] { solved = optim::optimize_pose(geometry.camera, frame.T_cw, problem.observations); };
+  if (!without_map_lock(frame, solve)) {  // the map moved: again from its new positions, under the lock
+    problem = tracking::frame_pose_problem(frame, geometry, stereo_depth_limit);
+    solve();
+  }
+  return tracking::apply_frame_pose(frame, problem, solved);
+}
+
 // ---- Motion model and its fallback -------------------------------------------------------------
 
 void Tracker::Impl::update_last_frame(Frame& last) const {
@@ -196,7 +250,7 @@ int Tracker::Impl::match_last_frame_from(Frame& frame, const Frame& last, const 
                   std::to_string(kMotionMinMatches) + ")";
     return -1;
   }
-  tracking::optimize_frame_pose(frame, geometry, stereo_depth_limit);
+  optimize_pose(frame);
   return tracking::discard_outliers(frame);
 }
 
@@ -269,7 +323,7 @@ bool Tracker::Impl::track_reference_keyframe(Frame& frame, const Frame& last, Tr
                    std::to_string(kKeyframeMinMatches) + ")";
     return false;
   }
-  tracking::optimize_frame_pose(frame, geometry, stereo_depth_limit);
+  optimize_pose(frame);
   result.matches_motion = tracking::discard_outliers(frame);
   if (result.matches_motion < kMinPoseInliers) {
     lost_reason += (lost_reason.empty() ? "" : "; ") + what + std::to_string(result.matches_motion) +
@@ -352,36 +406,52 @@ int Tracker::Impl::search_local_points(Frame& frame) {
   // The local points: each point of the local keyframes once, in the order first met (a mark per
   // build instead of a hash set), projected as it is met (one pass over tens of thousands of
   // keyframe features; a list first and the projection after touched every point twice).
-  const std::uint64_t local_mark = ++local_points_mark;
-  const Eigen::Vector3d center = frame.center();
-  projected.clear();
-  for (const KeyFrame* keyframe : local_keyframes) {
-    for (MapPoint* point : keyframe->points) {
-      if (point == nullptr || point->bad || point->tracking_local_mark == local_mark) continue;
-      point->tracking_local_mark = local_mark;
-      if (point->tracking_frame_mark == mark) continue;  // matched already
-      tracking::ProjectedPoint p;
-      if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
-      ++point->visible;
-      projected.push_back(p);
+  // `count` says whether a projected point counts as seen (not on a second pass of the frame).
+  const auto project_local_points = [&](bool count) {
+    const std::uint64_t local_mark = ++local_points_mark;
+    const Eigen::Vector3d center = frame.center();
+    projected.clear();
+    for (const KeyFrame* keyframe : local_keyframes) {
+      for (MapPoint* point : keyframe->points) {
+        if (point == nullptr || point->bad || point->tracking_local_mark == local_mark) continue;
+        point->tracking_local_mark = local_mark;
+        if (point->tracking_frame_mark == mark) continue;  // matched already
+        tracking::ProjectedPoint p;
+        if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
+        if (count) ++point->visible;
+        projected.push_back(p);
+      }
     }
-  }
+    if (!projected.empty()) {
+      tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, query_descriptors);
+    }
+  };
+  project_local_points(true);
   if (projected.empty()) return 0;
-  tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, query_descriptors);
-  matcher.set_frame(kernel_keypoints(*frame.features, scales_q16), frame.features->descriptors);
-  const std::vector<ProjectionResult> results = matcher.match(queries, query_descriptors);
+  std::vector<ProjectionResult> results;
+  const auto match = [&] {
+    matcher.set_frame(kernel_keypoints(*frame.features, scales_q16), frame.features->descriptors);
+    results = matcher.match(queries, query_descriptors);
+  };
+  if (!without_map_lock(frame, match)) {  // a loop correction moved the points: project them again
+    project_local_points(false);
+    if (projected.empty()) return 0;
+    match();
+  }
   return tracking::accept_local_matches(frame, projected, queries, results);
 }
 
 bool Tracker::Impl::track_local_map(Frame& frame, TrackingResult& result) {
   update_local_keyframes(frame);
   search_local_points(frame);
-  tracking::optimize_frame_pose(frame, geometry, stereo_depth_limit);
+  optimize_pose(frame);
   int inliers = 0;
   for (std::size_t i = 0; i < frame.points.size(); ++i) {
     MapPoint* point = frame.points[i];
     if (point == nullptr) continue;
-    if (frame.outlier[i]) {  // stereo: outliers are dropped right away (ORB-SLAM2)
+    // Stereo: outliers are dropped right away (ORB-SLAM2); so is a point that local mapping culled
+    // or merged while the pose was solved without the lock.
+    if (frame.outlier[i] || point->bad) {
       frame.points[i] = nullptr;
       frame.outlier[i] = false;
       continue;
@@ -529,6 +599,10 @@ Tracker::Tracker(const SlamSettings& settings, Map& map, LocalMapper& mapper, Ba
 
 Tracker::~Tracker() = default;
 
+void Tracker::release_map_lock_while_computing(bool on) { impl_->release_map_lock = on; }
+
+void Tracker::set_unlocked_hook(std::function<void()> hook) { impl_->unlocked_hook = std::move(hook); }
+
 void Tracker::relocalise_next(const std::string& why) {
   state_ = TrackingState::lost;
   impl_->lost_reason = why;
@@ -543,9 +617,24 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   TrackingResult result;
   Frame frame(frame_id, time_s, std::move(features), t.settings.camera);
   const auto wait_start = std::chrono::steady_clock::now();
-  const std::unique_lock<std::mutex> lock = t.map.lock_first();  // local mapping's fusion yields to it
+  std::unique_lock<std::mutex> lock = t.map.lock_first();  // local mapping's fusion yields to it
   result.map_wait_ns = elapsed_ns(wait_start);
   const auto start = std::chrono::steady_clock::now();
+  // Impl::without_map_lock may release `lock` and take it back, and counts the time in `result`.
+  struct LockScope {
+    Impl& t;
+    LockScope(Impl& impl, TrackingResult& result, std::unique_lock<std::mutex>& lock) : t(impl) {
+      t.map_lock = &lock;
+      t.timed = &result;
+      t.map_moved = false;
+    }
+    ~LockScope() {
+      t.map_lock = nullptr;
+      t.timed = nullptr;
+    }
+    LockScope(const LockScope&) = delete;
+    LockScope& operator=(const LockScope&) = delete;
+  } lock_scope(t, result, lock);
 
   if (state_ == TrackingState::not_initialized) {
     if (!t.initialize(frame, result)) return result;
@@ -628,6 +717,7 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   // tracked has one: the motion model failed, not the previous pose).
   const bool had_last_pose = !was_lost;
   frame.has_pose = true;
+  if (t.map_moved) t.update_last_frame(last_frame_);  // the velocity between poses of the moved map
   t.velocity = had_last_pose ? frame.T_cw * last_frame_.T_cw.inverse() : SE3::Identity();
   t.has_velocity = had_last_pose;
 

@@ -110,6 +110,9 @@ porta_cli_test(run_bad_input EXIT 1 STDERR "--input takes pinned or copy, got 'g
 porta_cli_test(run_bad_keyframes_while_mapping EXIT 1
                STDERR "--keyframes-while-mapping takes on or off, got 'maybe'"
                ARGS run --dataset kitti x --keyframes-while-mapping maybe)
+porta_cli_test(run_bad_tracking_map_lock EXIT 1
+               STDERR "--tracking-map-lock takes steps or frame, got 'step'"
+               ARGS run --dataset kitti x --tracking-map-lock step)
 
 # A truncated image partway through: exit 1 naming it, no trajectory (the reader's three paths).
 add_test(NAME cli.run_truncated_image_midway

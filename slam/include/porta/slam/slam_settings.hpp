@@ -60,6 +60,11 @@ struct SlamSettings {
   /// against 474 deterministic, and an RPE 6-12 % above ORB-SLAM2's); with this, 465-471 (RPE
   /// 0.0101 -> 0.0090 m). false: ORB-SLAM2's rule.
   bool keyframes_while_mapping = true;
+  /// Realtime mode: tracking lets the map's lock go while it computes on copies of map data (its
+  /// pose-only optimisations and the projection matcher), so that local mapping takes it meanwhile
+  /// (Tracker::release_map_lock_while_computing). false: tracking holds it for the whole frame
+  /// (ORB-SLAM2). The deterministic mode always holds it: nothing runs beside tracking there.
+  bool tracking_releases_map_lock = true;
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
   bool mapping_yields_to_tracking = true;

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,6 +53,9 @@ struct TrackingResult {
   int matches_local_map = 0;         ///< inliers after local-map tracking
   std::string lost_reason;           ///< why tracking was lost, for the user
   std::int64_t map_wait_ns = 0;      ///< waiting for the map's lock (held by local mapping or loop closing)
+  /// Within steps 1-3 (Tracker::release_map_lock_while_computing): computing without the map's
+  /// lock, and waiting to take it back.
+  std::int64_t unlocked_ns = 0, relock_wait_ns = 0;
   std::int64_t track_motion_ns = 0;  ///< steps 1-2
   std::int64_t track_local_map_ns = 0;
   std::int64_t keyframe_ns = 0;
@@ -71,6 +75,16 @@ class Tracker {
   /// Tracks one frame (its features already converted, FrameFeatures::from_frontend). Takes
   /// Map::mutex itself.
   TrackingResult track(std::uint64_t frame_id, double time_s, std::shared_ptr<const FrameFeatures> features);
+
+  /// On: the map's lock is released while tracking computes on copies of map data (the pose-only
+  /// optimisations and the projection matcher), so that local mapping and loop closing can take
+  /// it meanwhile; System turns it on in the realtime mode. Off (the default): the lock is held
+  /// from the start of track() to its end, as in ORB-SLAM2. When a loop correction moved the map
+  /// while the lock was released, the step is computed again under the lock. With nothing else
+  /// taking the lock, both give the same result.
+  void release_map_lock_while_computing(bool on);
+  /// Tests: called in every window without the map's lock, after its work.
+  void set_unlocked_hook(std::function<void()> hook);
 
   TrackingState state() const { return state_; }
   /// A map was loaded: the next frame relocalises against it instead of initialising a new map.
