@@ -488,10 +488,11 @@ std::string slam_run_options_usage() {
          "                      realtime: a keyframe the scene needs is made while mapping is busy\n"
          "                      and none waits (default on; off: only when mapping is idle, as\n"
          "                      ORB-SLAM2)\n"
-         "  --tracking-map-lock steps|frame\n"
-         "                      realtime: tracking lets the map's lock go while it computes on\n"
-         "                      copies, its pose optimisations and projection matching (default\n"
-         "                      steps), or holds it for the whole frame (frame, as ORB-SLAM2)\n"
+         "  --tracking-map-lock frame|steps\n"
+         "                      realtime: tracking holds the map's lock for the whole frame\n"
+         "                      (default frame, as ORB-SLAM2), or lets it go while it computes on\n"
+         "                      copies, its pose optimisations and projection matching (steps:\n"
+         "                      mapping does more meanwhile; more accurate, fewer frames/s)\n"
          "  --projection-match WHERE\n"
          "                      backend (default: the backend's projection-match kernel) or host:\n"
          "                      where tracking matches map points to the frame; same matches\n"
@@ -546,7 +547,7 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
   } else if (option == "--tracking-map-lock") {
     const std::string value = cursor.value(option);
     if (value != "steps" && value != "frame") {
-      throw CliError("--tracking-map-lock takes steps or frame, got '" + value + "'");
+      throw CliError("--tracking-map-lock takes frame or steps, got '" + value + "'");
     }
     options.tracking_releases_map_lock = value == "steps";
   } else if (option == "--ba-every") {

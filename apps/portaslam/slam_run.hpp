@@ -21,7 +21,7 @@ struct SlamRunOptions {
   int mapping_threads = 0;        ///< SlamSettings::mapping_threads (0: by the machine)
   int ba_every = 4;               ///< SlamSettings::bundle_adjustment_every
   bool keyframes_while_mapping = true;  ///< SlamSettings::keyframes_while_mapping
-  bool tracking_releases_map_lock = true;  ///< SlamSettings::tracking_releases_map_lock
+  bool tracking_releases_map_lock = false;  ///< SlamSettings::tracking_releases_map_lock
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
   int keyframe_queue = 2;         ///< SlamSettings::keyframe_queue_limit
   bool projection_on_backend = true;  ///< SlamSettings::projection_on_backend

@@ -111,7 +111,7 @@ porta_cli_test(run_bad_keyframes_while_mapping EXIT 1
                STDERR "--keyframes-while-mapping takes on or off, got 'maybe'"
                ARGS run --dataset kitti x --keyframes-while-mapping maybe)
 porta_cli_test(run_bad_tracking_map_lock EXIT 1
-               STDERR "--tracking-map-lock takes steps or frame, got 'step'"
+               STDERR "--tracking-map-lock takes frame or steps, got 'step'"
                ARGS run --dataset kitti x --tracking-map-lock step)
 
 # A truncated image partway through: exit 1 naming it, no trajectory (the reader's three paths).

@@ -1,6 +1,7 @@
 # `portaslam run`'s per-frame and per-keyframe logs (docs/USER_GUIDE.md, "Where the time goes"):
 # frames.csv has a line per frame, mapping.csv a line per keyframe local mapping processed, in
-# keyframe order, every field of its columns, and local mapping's steps add up within its total.
+# keyframe order, every field of its columns, and local mapping's steps add up within its total;
+# tracking's time without the map's lock is there with --tracking-map-lock steps only.
 # Run as a script by run.cmake: cmake -DPORTASLAM=... -DWORK=... -P slam_run_logs.cmake
 if(NOT CMAKE_SCRIPT_MODE_FILE)
   return()
@@ -62,4 +63,42 @@ foreach(line IN LISTS lines)
     message(FATAL_ERROR "mapping.csv: '${line}': the steps sum to ${sum} us, more than the total ${total}")
   endif()
 endforeach()
-message(STATUS "frames.csv 40 frames; mapping.csv ${processed} keyframes (the map keeps ${keyframes})")
+
+# Tracking's time without the map's lock (frames.csv's unlocked_ms, the 16th field): none in the
+# deterministic mode; some with --tracking-map-lock steps in the realtime mode.
+list(POP_FRONT frame_lines frame_header)
+if(NOT frame_header MATCHES ",map_wait_ms,unlocked_ms,relock_wait_ms,motion_ms,")
+  message(FATAL_ERROR "frames.csv header: '${frame_header}'")
+endif()
+function(count_unlocked_frames lines out)
+  set(n 0)
+  foreach(line IN LISTS lines)
+    string(REPLACE "," ";" fields "${line}")
+    list(GET fields 15 unlocked)
+    if(NOT unlocked MATCHES "^[0-9]+\\.[0-9][0-9][0-9]$")
+      message(FATAL_ERROR "frames.csv: unlocked_ms '${unlocked}' in '${line}'")
+    endif()
+    if(NOT unlocked STREQUAL "0.000")
+      math(EXPR n "${n} + 1")
+    endif()
+  endforeach()
+  set(${out} ${n} PARENT_SCOPE)
+endfunction()
+count_unlocked_frames("${frame_lines}" deterministic_unlocked)
+if(NOT deterministic_unlocked EQUAL 0)
+  message(FATAL_ERROR "frames.csv: ${deterministic_unlocked} deterministic frames released the map's lock")
+endif()
+execute_process(COMMAND ${PORTASLAM} run --dataset kitti seq --tracking-map-lock steps --out steps --quiet
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err WORKING_DIRECTORY ${WORK})
+if(NOT rc EQUAL 0 OR NOT out MATCHES "without map lock")
+  message(FATAL_ERROR "run --tracking-map-lock steps: exit ${rc}:\n${out}${err}")
+endif()
+file(STRINGS ${WORK}/steps/frames.csv steps_lines)
+list(POP_FRONT steps_lines)
+count_unlocked_frames("${steps_lines}" steps_unlocked)
+# Every frame after the first is tracked with the motion model and the local map: three windows.
+if(steps_unlocked LESS 39)
+  message(FATAL_ERROR "frames.csv with --tracking-map-lock steps: ${steps_unlocked} of 40 frames released the lock")
+endif()
+message(STATUS "frames.csv 40 frames; mapping.csv ${processed} keyframes (the map keeps ${keyframes}); "
+               "${steps_unlocked} frames without the map's lock at times with --tracking-map-lock steps")

@@ -62,9 +62,12 @@ struct SlamSettings {
   bool keyframes_while_mapping = true;
   /// Realtime mode: tracking lets the map's lock go while it computes on copies of map data (its
   /// pose-only optimisations and the projection matcher), so that local mapping takes it meanwhile
-  /// (Tracker::release_map_lock_while_computing). false: tracking holds it for the whole frame
-  /// (ORB-SLAM2). The deterministic mode always holds it: nothing runs beside tracking there.
-  bool tracking_releases_map_lock = true;
+  /// (Tracker::release_map_lock_while_computing). false (the default): tracking holds it for the
+  /// whole frame (ORB-SLAM2). As fast as possible, true maps more and tracks more slowly: on the
+  /// 2-core machine ATE 0.210 -> 0.167 m and RPE 0.0084 -> 0.0080 m, at 47.2 instead of 50.0
+  /// frames/s; on an H100 host 370 instead of 398 frames/s at the same ATE (medians,
+  /// docs/BENCHMARKS.md). The deterministic mode always holds it: nothing runs beside tracking.
+  bool tracking_releases_map_lock = false;
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
   bool mapping_yields_to_tracking = true;
