@@ -20,20 +20,6 @@ namespace {
 using test::Pipeline;
 using test::World;
 
-/// `frames` poses stepping `step_m` forward with `yaw_deg` of yaw per frame.
-std::vector<SE3> path(int frames, double step_m, double yaw_deg) {
-  SE3 step = SE3::Identity();
-  step.linear() = Eigen::AngleAxisd(yaw_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  step.translation() = Eigen::Vector3d(0.0, 0.0, step_m);
-  std::vector<SE3> out;
-  SE3 T_wc = SE3::Identity();
-  for (int k = 0; k < frames; ++k) {
-    out.push_back(T_wc.inverse());
-    T_wc = T_wc * step;
-  }
-  return out;
-}
-
 double position_error_m(const SE3& estimate_cw, const SE3& truth_cw) {
   return (estimate_cw.inverse().translation() - truth_cw.inverse().translation()).norm();
 }
@@ -43,7 +29,7 @@ double position_error_m(const SE3& estimate_cw, const SE3& truth_cw) {
 constexpr int kLap = 120;
 
 TEST(LoopClosing, ClosesTheLoopWhenThePathReturnsToItsStart) {
-  const World w(path(kLap + 24, 0.5, 3.0), 21, 2400, kLap);
+  const World w(test::straight_path(kLap + 24, 0.5, 3.0), 21, 2400, kLap);
   Pipeline p(w, w.settings, /*with_loop_closer=*/true);
   p.run(w, kLap + 24, 21);
   for (std::size_t k = 0; k < p.results.size(); ++k) {
@@ -80,7 +66,7 @@ TEST(LoopClosing, ClosesTheLoopWhenThePathReturnsToItsStart) {
 }
 
 TEST(LoopClosing, SameInputGivesBitIdenticalMapsWithLoopClosing) {
-  const World w(path(kLap + 24, 0.5, 3.0), 23, 2400, kLap);
+  const World w(test::straight_path(kLap + 24, 0.5, 3.0), 23, 2400, kLap);
   Pipeline first(w, w.settings, true), second(w, w.settings, true);
   first.run(w, kLap + 24, 23);
   second.run(w, kLap + 24, 23);
@@ -96,7 +82,7 @@ TEST(LoopClosing, SameInputGivesBitIdenticalMapsWithLoopClosing) {
 // descriptors with the same co-visibility, so place recognition scores the old keyframes highly,
 // but no rigid motion maps one layout onto the other.
 TEST(LoopClosing, RefusesALookAlikePlaceWhoseGeometryDoesNotFit) {
-  World w(path(120, 0.3, 1.0), 25, 1800, 120, 10.0);
+  World w(test::straight_path(120, 0.3, 1.0), 25, 1800, 120, 10.0);
   const std::size_t originals = w.points.size();
   for (std::size_t j = 0; j < originals; ++j) {
     const int k = w.host_frame[j];
@@ -128,7 +114,7 @@ TEST(LoopClosing, RefusesALookAlikePlaceWhoseGeometryDoesNotFit) {
 // ---- Relocalisation -------------------------------------------------------------------------------
 
 TEST(Relocalisation, CoveredLensThenTheSameViewAgainRelocalisesAtOnce) {
-  const World w(path(90, 0.3, 1.0), 27, 1500, 80);
+  const World w(test::straight_path(90, 0.3, 1.0), 27, 1500, 80);
   Pipeline p(w, w.settings, true);
   p.run(w, 40, 27);
   // 30 frames without a single feature (a covered lens), then the camera where it was.
@@ -151,7 +137,7 @@ TEST(Relocalisation, CoveredLensThenTheSameViewAgainRelocalisesAtOnce) {
 }
 
 TEST(Relocalisation, KidnappedToAnEarlierPlaceRelocalisesThereWithinCentimetres) {
-  const World w(path(90, 0.3, 1.0), 29, 1500, 80);
+  const World w(test::straight_path(90, 0.3, 1.0), 29, 1500, 80);
   Pipeline p(w, w.settings, true);
   p.run(w, 60, 29);
   // Carried back 45 frames (13.5 m): the next frame shows the place of frame 15.
@@ -179,7 +165,7 @@ TEST(Relocalisation, KidnappedToAnEarlierPlaceRelocalisesThereWithinCentimetres)
 }
 
 TEST(Relocalisation, WithoutALoopCloserTrackingStaysLostAndSaysWhy) {
-  const World w(path(40, 0.3, 1.0), 31, 1200, 30);
+  const World w(test::straight_path(40, 0.3, 1.0), 31, 1200, 30);
   Pipeline p(w, w.settings, false);
   p.run(w, 10, 31);
   const TrackingResult& lost = p.feed(10, test::observe(w, 10, 31, true));

@@ -22,18 +22,7 @@ namespace {
 constexpr int kFrames = 30;
 
 /// 0.3 m forward and 1 degree of yaw per frame.
-std::vector<SE3> straight_path() {
-  SE3 step = SE3::Identity();
-  step.linear() = Eigen::AngleAxisd(std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  step.translation() = Eigen::Vector3d(0.0, 0.0, 0.3);
-  std::vector<SE3> path;
-  SE3 T_wc = SE3::Identity();
-  for (int k = 0; k < kFrames + 10; ++k) {
-    path.push_back(T_wc.inverse());
-    T_wc = T_wc * step;
-  }
-  return path;
-}
+std::vector<SE3> straight_path() { return test::straight_path(kFrames + 10); }
 
 bool same_bits(const SE3& a, const SE3& b) { return std::memcmp(a.data(), b.data(), sizeof(double) * 16) == 0; }
 

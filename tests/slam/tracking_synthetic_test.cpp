@@ -33,19 +33,7 @@ constexpr double kStepM = 0.3;
 constexpr double kStepDeg = 1.0;
 
 /// The straight path of these tests: 0.3 m forward and 1 degree of yaw per frame.
-std::vector<SE3> straight_path() {
-  SE3 step = SE3::Identity();
-  step.linear() =
-      Eigen::AngleAxisd(kStepDeg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  step.translation() = Eigen::Vector3d(0.0, 0.0, kStepM);
-  std::vector<SE3> path;
-  SE3 T_wc = SE3::Identity();
-  for (int k = 0; k < kFrames + 10; ++k) {
-    path.push_back(T_wc.inverse());
-    T_wc = T_wc * step;
-  }
-  return path;
-}
+std::vector<SE3> straight_path() { return test::straight_path(kFrames + 10, kStepM, kStepDeg); }
 
 struct World : test::World {
   explicit World(std::uint64_t seed, int num_points = 1200) : test::World(straight_path(), seed, num_points, kFrames) {}
