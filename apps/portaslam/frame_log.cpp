@@ -42,8 +42,8 @@ std::string frame_log_csv(std::size_t first_frame, const std::vector<slam::Frame
     }
     if (i < results.size()) {
       const slam::TrackingResult& r = results[i];
-      line << ',' << ms(r.map_wait_ns) << ',' << ms(r.unlocked_ns) << ',' << ms(r.relock_wait_ns) << ',' << ms(r.track_motion_ns) << ',' << ms(r.track_local_map_ns) << ','
-           << ms(r.keyframe_ns);
+      line << ',' << ms(r.map_wait_ns) << ',' << ms(r.unlocked_ns) << ',' << ms(r.relock_wait_ns) << ','
+           << ms(r.track_motion_ns) << ',' << ms(r.track_local_map_ns) << ',' << ms(r.keyframe_ns);
     } else {
       line << ",,,,,,";
     }

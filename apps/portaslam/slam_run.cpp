@@ -287,7 +287,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
 
   // Per-stage timing.
   std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, triangulate_ns, fuse_ns, ba_ns;
-  std::vector<std::int64_t> map_wait_ns, unlocked_ns, relock_wait_ns, motion_ns, track_local_ns, keyframe_ns, mapping_wait_ns;
+  std::vector<std::int64_t> map_wait_ns, unlocked_ns, relock_wait_ns, motion_ns, track_local_ns, keyframe_ns;
+  std::vector<std::int64_t> mapping_wait_ns;
   const bool stereo_separated = system.frontend_in_flight() == 1;  // pipelined frames are not profiled
   for (const slam::FrameTimes& t : system.frame_times()) {
     frontend_ns.push_back(t.frontend_ns);
@@ -345,8 +346,9 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     }
     std::printf("%-17s %s\n", name.c_str(), format_ms(q).c_str());
   }
-  std::printf("(frontend includes stereo matching%s;\n tracking = map lock wait + track motion + track local map + keyframe,"
-              " the track steps including the time without the map lock and waiting to retake it;"
+  std::printf("(frontend includes stereo matching%s;\n tracking = map lock wait + track motion"
+              " + track local map + keyframe, the track steps including the time without the map lock"
+              " and waiting to retake it;"
               " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe;"
               " input wait = the frames' loop waiting for the next pair from the reader, outside frame)\n",
               stereo_separated ? "" : " and is the host's share: the device works on the next pair while one is tracked",

@@ -30,7 +30,8 @@ System::System(const SlamSettings& settings, Backend& backend, RunMode mode, Sys
   // frame tracked does not wait for the next one's frontend work, queued on the slot's queues.
   tracker_ = std::make_unique<Tracker>(settings_, map_, *mapper_, backend_, frontend_->tables(), loop_closer_.get(),
                                        frontend_->spare_queue());
-  tracker_->release_map_lock_while_computing(mode_ == RunMode::realtime && settings_.tracking_releases_map_lock);
+  tracker_->release_map_lock_while_computing(mode_ == RunMode::realtime &&
+                                             settings_.tracking_releases_map_lock);
   // Localisation only: nothing is added to the map, so neither thread has work.
   if (mode_ == RunMode::realtime && !settings_.localization_only) {
     loop_closer_->start();

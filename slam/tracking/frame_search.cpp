@@ -233,7 +233,8 @@ int accept_local_matches(Frame& frame, const std::vector<ProjectedPoint>& points
   return matches;
 }
 
-FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m) {
+FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry,
+                                    double stereo_depth_limit_m) {
   const FrameFeatures& features = *frame.features;
   FramePoseProblem problem;
   for (std::size_t i = 0; i < features.size(); ++i) {
@@ -254,16 +255,20 @@ FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry
   return problem;
 }
 
-int apply_frame_pose(Frame& frame, const FramePoseProblem& problem, const optim::PoseOptimizationResult& result) {
+int apply_frame_pose(Frame& frame, const FramePoseProblem& problem,
+                     const optim::PoseOptimizationResult& result) {
   if (!result.optimized) return 0;
   frame.T_cw = result.T_cw;
-  for (std::size_t k = 0; k < problem.feature_of.size(); ++k) frame.outlier[problem.feature_of[k]] = !result.inlier[k];
+  for (std::size_t k = 0; k < problem.feature_of.size(); ++k) {
+    frame.outlier[problem.feature_of[k]] = !result.inlier[k];
+  }
   return result.num_inliers;
 }
 
 int optimize_frame_pose(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m) {
   const FramePoseProblem problem = frame_pose_problem(frame, geometry, stereo_depth_limit_m);
-  return apply_frame_pose(frame, problem, optim::optimize_pose(geometry.camera, frame.T_cw, problem.observations));
+  return apply_frame_pose(frame, problem,
+                          optim::optimize_pose(geometry.camera, frame.T_cw, problem.observations));
 }
 
 int discard_outliers(Frame& frame) {

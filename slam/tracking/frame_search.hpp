@@ -75,11 +75,13 @@ struct FramePoseProblem {
 /// Copies the frame's matches into a pose problem (needs Map::mutex) and clears frame.outlier.
 /// Features whose stereo depth exceeds `stereo_depth_limit_m` count by their left-image position
 /// only (monocular observations).
-FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry, double stereo_depth_limit_m);
+FramePoseProblem frame_pose_problem(Frame& frame, const SearchGeometry& geometry,
+                                    double stereo_depth_limit_m);
 
 /// Applies optim::optimize_pose's result on `problem`: sets frame.T_cw and frame.outlier; returns
 /// the inliers (0, pose unchanged, when it did not optimise).
-int apply_frame_pose(Frame& frame, const FramePoseProblem& problem, const optim::PoseOptimizationResult& result);
+int apply_frame_pose(Frame& frame, const FramePoseProblem& problem,
+                     const optim::PoseOptimizationResult& result);
 
 /// Pose-only optimisation over every matched feature of the frame (optim/pose_optimization.hpp),
 /// all three steps above under the lock: sets frame.T_cw and frame.outlier; returns the inliers.

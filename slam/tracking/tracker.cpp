@@ -1,10 +1,11 @@
 // Tracking after ORB-SLAM2's stereo Tracking (written from its description); see tracker.hpp.
 //
 // One track() call holds Map::mutex from start to end: every step reads or writes map objects, and
-// local mapping must not move points under a pose optimisation. With
-// release_map_lock_while_computing (the realtime mode) it lets the lock go while it computes on
-// copies (without_map_lock): the pose optimisations and the projection matcher's kernel. Every loop that decides something
-// runs over feature indices or id-ordered containers, so the same frames give the same bits.
+// local mapping must not move points under a pose optimisation; with
+// release_map_lock_while_computing it lets the lock go while it computes on copies
+// (without_map_lock): the pose optimisations and the projection matcher's kernel. Every loop that
+// decides something runs over feature indices or id-ordered containers, so the same frames give
+// the same bits.
 #include "porta/slam/tracker.hpp"
 
 #include <algorithm>
@@ -214,7 +215,9 @@ bool Tracker::Impl::without_map_lock(Frame& frame, Work&& work) {
 int Tracker::Impl::optimize_pose(Frame& frame) {
   tracking::FramePoseProblem problem = tracking::frame_pose_problem(frame, geometry, stereo_depth_limit);
   optim::PoseOptimizationResult solved;
-  const auto solve = [&] { solved = optim::optimize_pose(geometry.camera, frame.T_cw, problem.observations); };
+  const auto solve = [&] {
+    solved = optim::optimize_pose(geometry.camera, frame.T_cw, problem.observations);
+  };
   if (!without_map_lock(frame, solve)) {  // the map moved: again from its new positions, under the lock
     problem = tracking::frame_pose_problem(frame, geometry, stereo_depth_limit);
     solve();

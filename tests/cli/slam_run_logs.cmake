@@ -98,7 +98,8 @@ list(POP_FRONT steps_lines)
 count_unlocked_frames("${steps_lines}" steps_unlocked)
 # Every frame after the first is tracked with the motion model and the local map: three windows.
 if(steps_unlocked LESS 39)
-  message(FATAL_ERROR "frames.csv with --tracking-map-lock steps: ${steps_unlocked} of 40 frames released the lock")
+  message(FATAL_ERROR
+          "frames.csv with --tracking-map-lock steps: ${steps_unlocked} of 40 frames released the lock")
 endif()
 message(STATUS "frames.csv 40 frames; mapping.csv ${processed} keyframes (the map keeps ${keyframes}); "
                "${steps_unlocked} frames without the map's lock at times with --tracking-map-lock steps")

@@ -24,7 +24,8 @@ namespace porta::slam::test {
 /// A straight drive of `poses` T_cw: `step_m` forward and `step_deg` of yaw per frame.
 inline std::vector<SE3> straight_path(int poses, double step_m = 0.3, double step_deg = 1.0) {
   SE3 step = SE3::Identity();
-  step.linear() = Eigen::AngleAxisd(step_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  step.linear() =
+      Eigen::AngleAxisd(step_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
   step.translation() = Eigen::Vector3d(0.0, 0.0, step_m);
   std::vector<SE3> path;
   SE3 T_wc = SE3::Identity();

@@ -24,7 +24,9 @@ constexpr int kFrames = 30;
 /// 0.3 m forward and 1 degree of yaw per frame.
 std::vector<SE3> straight_path() { return test::straight_path(kFrames + 10); }
 
-bool same_bits(const SE3& a, const SE3& b) { return std::memcmp(a.data(), b.data(), sizeof(double) * 16) == 0; }
+bool same_bits(const SE3& a, const SE3& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(double) * 16) == 0;
+}
 
 double translation_error_m(const SE3& a, const SE3& b) {
   return (a.inverse().translation() - b.inverse().translation()).norm();

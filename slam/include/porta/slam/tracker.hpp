@@ -78,7 +78,8 @@ class Tracker {
 
   /// On: the map's lock is released while tracking computes on copies of map data (the pose-only
   /// optimisations and the projection matcher), so that local mapping and loop closing can take
-  /// it meanwhile; System turns it on in the realtime mode. Off (the default): the lock is held
+  /// it meanwhile; System turns it on in the realtime mode with
+  /// SlamSettings::tracking_releases_map_lock. Off (the default): the lock is held
   /// from the start of track() to its end, as in ORB-SLAM2. When a loop correction moved the map
   /// while the lock was released, the step is computed again under the lock. With nothing else
   /// taking the lock, both give the same result.
