@@ -124,8 +124,10 @@ TEST(TrackingMapLock, AMapMovedWhileTheLockIsReleasedMovesTheFrameWithIt) {
     for (frame = 0; frame < kFrames; ++frame) {
       window = 0;
       const TrackingResult& r = p.feed(static_cast<std::uint64_t>(frame), test::observe(w, frame, 25));
-      ASSERT_EQ(r.state, TrackingState::ok) << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
-      const SE3 truth = w.T_cw[static_cast<std::size_t>(frame)] * (frame >= kMoved ? S.inverse() : SE3::Identity());
+      ASSERT_EQ(r.state, TrackingState::ok)
+          << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
+      const SE3 moved = frame >= kMoved ? S.inverse() : SE3::Identity();
+      const SE3 truth = w.T_cw[static_cast<std::size_t>(frame)] * moved;
       EXPECT_LT(translation_error_m(r.T_cw, truth), 0.03) << "window " << moved_in << ", frame " << frame;
       EXPECT_FALSE(r.relocalised) << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
     }
