@@ -134,6 +134,7 @@ void BM_LocalBundleAdjustment_CeresDenseSchur(benchmark::State& state) { run(sta
 // Tracking's pose-only optimisation on one frame as the local-map search leaves it on the rendered
 // KITTI drive: 700 matched points 3-40 m ahead, 70 % with stereo, levels 0-7 (sigma 1.2^level,
 // 1 sigma of noise), 8 % gross outliers; the start 5 cm and 0.2 deg off (the motion model's guess).
+// /0: each round from the round before's pose (the default); /1: each from the start (ORB-SLAM2).
 void BM_PoseOptimization(benchmark::State& state) {
   const StereoCamera camera = kitti_camera();
   std::mt19937 rng(11);
@@ -161,21 +162,24 @@ void BM_PoseOptimization(benchmark::State& state) {
   start.linear() = Eigen::AngleAxisd(0.2 * std::numbers::pi / 180.0, Eigen::Vector3d(0.3, 1.0, 0.2).normalized())
                        .toRotationMatrix() * truth.linear();
   start.translation() += Eigen::Vector3d(0.03, -0.02, 0.035);
+  PoseOptimizationOptions options;
+  options.restart_each_round = state.range(0) != 0;  // /1: every round from the start (ORB-SLAM2)
   PoseOptimizationResult result;
   for (auto _ : state) {
-    result = optimize_pose(camera, start, observations);
+    result = optimize_pose(camera, start, observations, options);
     benchmark::DoNotOptimize(result.T_cw);
   }
   state.counters["observations"] = static_cast<double>(observations.size());
   state.counters["inliers"] = result.num_inliers;
   state.counters["rounds_solved"] = result.rounds_solved;
+  state.counters["passes"] = result.passes;
   state.counters["error_mm"] = 1000.0 * (result.T_cw.translation() - truth.translation()).norm();
 }
 
 BENCHMARK(BM_LocalBundleAdjustment_Schur)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_LocalBundleAdjustment_SchurThreads)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_LocalBundleAdjustment_CeresDenseSchur)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_PoseOptimization)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PoseOptimization)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -139,19 +139,21 @@ bool evaluate(const ProjectionModel& model, const std::vector<Term>& terms, cons
 /// A candidate's cost and its normal equations come from one pass (evaluate), so an accepted step
 /// costs one pass over the terms, not two; the result is the same, bit for bit, as computing them
 /// apart (the same sums in the same order).
-void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std::vector<Term>& terms,
-                         const std::vector<bool>& active, bool robust, int max_iterations) {
+/// Returns the passes over the terms it made.
+int levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std::vector<Term>& terms,
+                        const std::vector<bool>& active, bool robust, int max_iterations) {
   const Se3Manifold manifold;
   double cost = 0.0;
   Matrix6 H;
   Vector6 g;
-  if (!evaluate(model, terms, active, robust, x, cost, H, g)) return;
+  int passes = 1;
+  if (!evaluate(model, terms, active, robust, x, cost, H, g)) return passes;
   double lambda = 1e-4;
   double candidate_cost = 0.0;
   Matrix6 candidate_H;
   Vector6 candidate_g;
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    if (g.lpNorm<Eigen::Infinity>() <= 1e-10) return;
+    if (g.lpNorm<Eigen::Infinity>() <= 1e-10) return passes;
 
     // Damped steps until one lowers the cost (Marquardt's diagonal scaling).
     bool accepted = false;
@@ -159,9 +161,10 @@ void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std:
       Matrix6 damped = H;
       for (int k = 0; k < 6; ++k) damped(k, k) += lambda * std::max(H(k, k), 1e-6);
       const Vector6 step = damped.ldlt().solve(-g);
-      if (!step.allFinite()) return;
+      if (!step.allFinite()) return passes;
       PoseParams candidate{};
       manifold.Plus(x.data(), step.data(), candidate.data());
+      ++passes;
       if (evaluate(model, terms, active, robust, candidate, candidate_cost, candidate_H, candidate_g) &&
           candidate_cost < cost) {
         const double decrease = (cost - candidate_cost) / std::max(cost, 1e-300);
@@ -171,14 +174,15 @@ void levenberg_marquardt(const ProjectionModel& model, PoseParams& x, const std:
         g = candidate_g;
         lambda = std::max(lambda / 3.0, 1e-12);
         accepted = true;
-        if (decrease < 1e-6 || step.norm() < 1e-10) return;
+        if (decrease < 1e-6 || step.norm() < 1e-10) return passes;
       } else {
         lambda *= 4.0;
-        if (step.norm() < 1e-10) return;
+        if (step.norm() < 1e-10) return passes;
       }
     }
-    if (!accepted) return;
+    if (!accepted) return passes;
   }
+  return passes;
 }
 
 }  // namespace
@@ -242,7 +246,7 @@ PoseOptimizationResult optimize_pose(const StereoCamera& camera, const SE3& T_cw
     if (std::count(inlier.begin(), inlier.end(), true) < 3) break;
     solved_with = inlier;
     solved_robust = robust;
-    levenberg_marquardt(model, x, terms, inlier, robust, options.iterations_per_round);
+    result.passes += levenberg_marquardt(model, x, terms, inlier, robust, options.iterations_per_round);
     ++result.rounds_run;
     ++result.rounds_solved;
     result.optimized = true;

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <numbers>
 #include <random>
@@ -87,7 +88,8 @@ Frame synthetic_frame(const StereoCamera& cam, const SE3& T_cw, int count, doubl
   return frame;
 }
 
-// A round whose inliers and loss equal those the round before was solved with is not solved again
+// Restarting every round from the initial pose (ORB-SLAM2), a round whose inliers and loss equal
+// those the round before was solved with is not solved again
 // (PoseOptimizationOptions::skip_repeated_rounds): the same pose and inliers, bit for bit.
 TEST(OptimPoseOnly, RepeatedRoundsAreSkippedWithTheSameResult) {
   const StereoCamera cam = test_camera();
@@ -96,10 +98,12 @@ TEST(OptimPoseOnly, RepeatedRoundsAreSkippedWithTheSameResult) {
   for (const unsigned seed : {7u, 8u, 9u, 10u}) {
     const Frame frame = synthetic_frame(cam, truth, 200, seed == 10u ? 0.0 : 0.15, seed);
     const SE3 initial = perturbed(truth, 0.05, 1.0);
-    PoseOptimizationOptions every;
+    PoseOptimizationOptions restarting;
+    restarting.restart_each_round = true;
+    PoseOptimizationOptions every = restarting;
     every.skip_repeated_rounds = false;
     const PoseOptimizationResult all = optimize_pose(cam, initial, frame.observations, every);
-    const PoseOptimizationResult fewer = optimize_pose(cam, initial, frame.observations);
+    const PoseOptimizationResult fewer = optimize_pose(cam, initial, frame.observations, restarting);
     EXPECT_EQ(all.rounds_solved, all.rounds_run);
     EXPECT_EQ(fewer.rounds_run, all.rounds_run);
     EXPECT_EQ(std::memcmp(all.T_cw.data(), fewer.T_cw.data(), sizeof(double) * 16), 0) << "seed " << seed;
@@ -108,6 +112,31 @@ TEST(OptimPoseOnly, RepeatedRoundsAreSkippedWithTheSameResult) {
     skipped += fewer.rounds_run - fewer.rounds_solved;
   }
   EXPECT_GT(skipped, 0) << "no round was a repeat: the case is not exercised";
+}
+
+// The default, each round from the round before's pose, ends where restarting from the initial
+// pose ends (the same inliers, the pose to 0.1 mm and 0.001 degrees) in fewer passes.
+TEST(OptimPoseOnly, EachRoundFromTheLastGivesTheRestartedPoseInFewerPasses) {
+  const StereoCamera cam = test_camera();
+  const SE3 truth = true_pose();
+  int passes_restarted = 0, passes_continued = 0;
+  for (const unsigned seed : {7u, 8u, 9u, 10u, 11u}) {
+    const Frame frame = synthetic_frame(cam, truth, 200, seed == 10u ? 0.0 : 0.15, seed);
+    const SE3 initial = perturbed(truth, 0.05, 1.0);
+    PoseOptimizationOptions restart;
+    restart.restart_each_round = true;
+    const PoseOptimizationResult restarted = optimize_pose(cam, initial, frame.observations, restart);
+    const PoseOptimizationResult continued = optimize_pose(cam, initial, frame.observations);
+    ASSERT_TRUE(continued.optimized);
+    EXPECT_EQ(continued.inlier, restarted.inlier) << "seed " << seed;
+    EXPECT_LT(translation_error_m(continued.T_cw, restarted.T_cw), 1e-4) << "seed " << seed;
+    EXPECT_LT(rotation_error_deg(continued.T_cw, restarted.T_cw), 1e-3) << "seed " << seed;
+    passes_restarted += restarted.passes;
+    passes_continued += continued.passes;
+  }
+  EXPECT_LT(passes_continued, passes_restarted);
+  std::printf("passes over the terms, 5 frames: %d restarting each round, %d from the last\n", passes_restarted,
+              passes_continued);
 }
 
 TEST(OptimPoseOnly, RecoversPerturbedPoseAndSeparatesOutliers) {
