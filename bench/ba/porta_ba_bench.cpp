@@ -134,7 +134,7 @@ void BM_LocalBundleAdjustment_CeresDenseSchur(benchmark::State& state) { run(sta
 // Tracking's pose-only optimisation on one frame as the local-map search leaves it on the rendered
 // KITTI drive: 700 matched points 3-40 m ahead, 70 % with stereo, levels 0-7 (sigma 1.2^level,
 // 1 sigma of noise), 8 % gross outliers; the start 5 cm and 0.2 deg off (the motion model's guess).
-// /0: each round from the round before's pose (the default); /1: each from the start (ORB-SLAM2).
+// /0: each round from the round before's pose; /1: each from the start (ORB-SLAM2, the default).
 void BM_PoseOptimization(benchmark::State& state) {
   const StereoCamera camera = kitti_camera();
   std::mt19937 rng(11);

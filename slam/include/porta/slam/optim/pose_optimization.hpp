@@ -37,12 +37,11 @@ struct PoseOptimizationOptions {
   double chi2_mono = kChi2Mono95;
   double chi2_stereo = kChi2Stereo95;
   int min_inliers_to_continue = 10;  ///< stop after a round that leaves fewer inliers (ORB-SLAM2: 10)
-  /// true: every round starts from the initial pose, as ORB-SLAM2. false (the default): from the
-  /// round before's result, so that a later round, whose inliers are mostly the same, converges in
-  /// a step or two instead of again from the start: on the rendered KITTI drive 21 % less time
-  /// for the same pose to 0.01 mm (BM_PoseOptimization), and the deterministic run's ATE and RPE
-  /// unchanged to four digits (docs/BENCHMARKS.md).
-  bool restart_each_round = false;
+  /// true (the default): every round starts from the initial pose, as ORB-SLAM2. false: from the
+  /// round before's result, the same pose to 0.01 mm in fewer passes where the inliers change
+  /// between rounds (BM_PoseOptimization: 13 against 17), but inside SLAM, where repeated rounds
+  /// are skipped, only 5 % fewer (docs/BENCHMARKS.md): not worth new deterministic bytes.
+  bool restart_each_round = true;
   /// With restart_each_round: a round whose inliers and loss are those the round before was solved
   /// with would give that round's pose again, bit for bit, so it is not solved again. false solves
   /// every round (the same result; for tests).
