@@ -3,7 +3,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 
+#include "descriptor_scan.hpp"
 #include "porta/slam/map.hpp"
 
 namespace porta::slam {
@@ -52,27 +54,19 @@ std::vector<FeatureMatch> match_by_descriptor(const FrameFeatures& a, const std:
                                               int max_distance, double ratio) {
   std::vector<int> owner(b.size(), -1);  // b feature -> index into `found`
   std::vector<FeatureMatch> found;
+  const detail::DescriptorPlanes candidates(b.descriptors, from_b);
+  std::vector<std::uint16_t> distances;
   for (const int i : from_a) {
-    const Descriptor& d = a.descriptors[static_cast<std::size_t>(i)];
-    int best = 257, second = 257, best_j = -1;
-    for (const int j : from_b) {
-      const int distance = hamming_distance(d, b.descriptors[static_cast<std::size_t>(j)]);
-      if (distance < best) {
-        second = best;
-        best = distance;
-        best_j = j;
-      } else if (distance < second) {
-        second = distance;
-      }
-    }
-    if (best_j < 0 || best > max_distance || best >= ratio * second) continue;
+    const detail::Nearest nearest = candidates.nearest(a.descriptors[static_cast<std::size_t>(i)], distances);
+    if (nearest.index < 0 || nearest.best > max_distance || nearest.best >= ratio * nearest.second) continue;
+    const int best_j = from_b[static_cast<std::size_t>(nearest.index)];
     int& o = owner[static_cast<std::size_t>(best_j)];
     if (o >= 0) {
-      if (found[static_cast<std::size_t>(o)].distance <= best) continue;
+      if (found[static_cast<std::size_t>(o)].distance <= nearest.best) continue;
       found[static_cast<std::size_t>(o)].feature1 = -1;  // displaced by a closer one
     }
     o = static_cast<int>(found.size());
-    found.push_back({i, best_j, best});
+    found.push_back({i, best_j, nearest.best});
   }
   std::vector<FeatureMatch> matches;
   for (const FeatureMatch& m : found) {
