@@ -159,20 +159,36 @@ struct PairSearch {
     if (!(line_norm2 > 0.0)) return result;
     // Without stereo depth on either side, a ray nearly along the baseline has no usable depth.
     const bool skip_near_epipole = !f1.has_depth(s1);
+    // Two passes per block of the range: which candidates lie in their band, without a branch (a
+    // quarter do, in no predictable pattern: the branch of a one-pass loop mispredicted most of
+    // its time away), then the descriptor distances of those, in the same ascending order.
+    constexpr int kBlock = 128;
+    std::array<int, kBlock> in_band;
+    const double a = line.x(), b = line.y(), c = line.z();
     candidates.index.visit_band(line, [&](int first, int last) {
-      for (auto k = static_cast<std::size_t>(first); k < static_cast<std::size_t>(last); ++k) {
-        // Squared distance to the epipolar line within the band (num^2 / |line|^2 < band).
-        const double num = line.x() * candidates.u[k] + line.y() * candidates.v[k] + line.z();
-        if (num * num >= candidates.band[k] * line_norm2) continue;
-        if (skip_near_epipole && candidates.near_epipole_mono[k] != 0) continue;
-        const int i2 = candidates.feature[k];
-        const int distance = descriptor_distance(query, candidates.descriptor[k]);
-        if (distance < result.best || (distance == result.best && i2 < result.i2)) {
-          result.second = result.best;
-          result.best = distance;
-          result.i2 = i2;
-        } else if (distance < result.second) {
-          result.second = distance;
+      for (int begin = first; begin < last; begin += kBlock) {
+        const int end = std::min(last, begin + kBlock);
+        int count = 0;
+        for (int k = begin; k < end; ++k) {
+          const auto s = static_cast<std::size_t>(k);
+          // Squared distance to the epipolar line within the band (num^2 / |line|^2 < band).
+          const double num = a * candidates.u[s] + b * candidates.v[s] + c;
+          const int outside_band = num * num >= candidates.band[s] * line_norm2 ? 1 : 0;
+          const int skipped = skip_near_epipole ? candidates.near_epipole_mono[s] : 0;  // 0 or 1
+          in_band[static_cast<std::size_t>(count)] = k;
+          count += 1 - (outside_band | skipped);
+        }
+        for (int j = 0; j < count; ++j) {
+          const auto k = static_cast<std::size_t>(in_band[static_cast<std::size_t>(j)]);
+          const int i2 = candidates.feature[k];
+          const int distance = descriptor_distance(query, candidates.descriptor[k]);
+          if (distance < result.best || (distance == result.best && i2 < result.i2)) {
+            result.second = result.best;
+            result.best = distance;
+            result.i2 = i2;
+          } else if (distance < result.second) {
+            result.second = distance;
+          }
         }
       }
     });
