@@ -38,10 +38,10 @@ T* scratch(int count) {
 /// <= 2048 * 255 = 522 240 (< 2^19), and wx0 * blend[x0] + wx1 * blend[x1] + 2^21
 /// <= 2048 * 522 240 + 2^21 = 255 * 2^22 + 2^21 < 2^30. So the vertical blend runs over whole rows
 /// in vectors, and only the horizontal step gathers through the column table.
-PORTA_CPU_HOT void pyramid_row(const std::uint8_t* top, const std::uint8_t* bottom, int src_width,
-                               std::uint32_t wy0, std::uint32_t wy1, const std::int32_t* col_src0,
-                               const std::int32_t* col_w1, int width, std::uint32_t* blend,
-                               std::uint8_t* out) {
+PORTA_CPU_HOT void pyramid_row(const std::uint8_t* __restrict top, const std::uint8_t* __restrict bottom,
+                               int src_width, std::uint32_t wy0, std::uint32_t wy1,
+                               const std::int32_t* __restrict col_src0, const std::int32_t* __restrict col_w1,
+                               int width, std::uint32_t* __restrict blend, std::uint8_t* __restrict out) {
   // Vertical blend of the whole row (GCC vectorises this loop: 8 uint32 lanes in the AVX2 clone).
   for (int x = 0; x < src_width; ++x) blend[x] = wy0 * top[x] + wy1 * bottom[x];
   // The right neighbour of the last column is the last column (x1 = min(x0 + 1, width - 1)):
