@@ -22,7 +22,7 @@
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
 # Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
 # runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BA_BENCH
-# (0: no local BA or PNG reading benchmark), PORTA_SLAM_RUN_ARGS (more `portaslam run` options for every run, e.g.
+# (0: no local BA, PNG reading or descriptor matching benchmark), PORTA_SLAM_RUN_ARGS (more `portaslam run` options for every run, e.g.
 # "--mapping-threads 1" for a same-machine comparison), PORTA_SLAM_LOOP
 # (0: no street-loop determinism check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
@@ -214,6 +214,18 @@ if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
   fi
 fi
 
+# ---- 3d. Descriptor matching's scan: whether this host's CPU counts bits in vectors (porta_match_bench)
+if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
+  say "descriptor matching benchmark (loop verification, relocalisation)"
+  if cmake --build "$build_dir" --target porta_match_bench -j "${PORTA_JOBS:-$(nproc)}" >>"$out_dir/build.log" 2>&1; then
+    # A CPU without AVX-512 VPOPCNTDQ reports the vector row as an error; that is an answer, not a failure.
+    "$build_dir/bench/porta_match_bench" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
+      >"$out_dir/match-bench.txt" 2>&1 || true
+  else
+    echo "porta_match_bench not built (Google Benchmark missing? see build.log)" >"$out_dir/match-bench.txt"
+  fi
+fi
+
 # ---- 4. Report -------------------------------------------------------------------------------------
 python3 bench/slam_report.py --results "$out_dir" --work "$work" --backends "$backends" >"$out_dir/report.md" ||
   { say "report FAILED"; status=1; }
@@ -228,6 +240,10 @@ fi
 if [ -f "$out_dir/png-bench.txt" ]; then
   printf '\n### Reading the rendered PNG images on this host (porta_png_bench, medians of 5)\n\n```\n%s\n```\n' \
     "$(grep -E '_median|not built|ERROR' "$out_dir/png-bench.txt" | sed 's/ \{2,\}/  /g')" >>"$out_dir/report.md"
+fi
+if [ -f "$out_dir/match-bench.txt" ]; then
+  printf '\n### Descriptor matching on this host (porta_match_bench, medians of 5)\n\n```\n%s\n```\n' \
+    "$(grep -E '_median|not built|ERROR|VPOPCNTDQ' "$out_dir/match-bench.txt" | sed 's/ \{2,\}/  /g')" >>"$out_dir/report.md"
 fi
 cat "$out_dir/report.md"
 say "results in $out_dir (report.md, *.json, *.log, *.gpu.csv)"
