@@ -22,8 +22,9 @@
 # OpenCV (the dataset reader reads PNG through libpng). Python 3 (standard library) for the report.
 # Environment: PORTA_SLAM_FRAMES, PORTA_SLAM_REPEATS, PORTA_SLAM_RATE_FRAMES (0: no camera-rate
 # runs), PORTA_SLAM_DETERMINISTIC (0: no deterministic runs, a quick timing check), PORTA_SLAM_BA_BENCH
-# (0: no local BA, PNG reading or descriptor matching benchmark), PORTA_SLAM_RUN_ARGS (more `portaslam run` options for every run, e.g.
-# "--mapping-threads 1" for a same-machine comparison), PORTA_SLAM_LOOP
+# (0: no local BA, PNG reading or descriptor matching benchmark), PORTA_SLAM_RUN_ARGS (more
+# `portaslam run` options for every run, e.g. "--mapping-threads 1" for a same-machine
+# comparison), PORTA_SLAM_LOOP
 # (0: no street-loop determinism check), PORTA_SLAM_BACKENDS
 # (comma list; default every backend with a device), PORTA_GPU_CMAKE_ARGS, PORTA_DATA_DIR,
 # PORTA_JOBS, PORTA_SLAM_BUILD_DIR (default build-gpu-slam), PORTA_SLAM_WORK (default OUT_DIR/work:
@@ -66,7 +67,8 @@ if ! "$binary" run --help >/dev/null 2>&1; then
   exit 1
 fi
 "$binary" backends | tee "$out_dir/backends.txt"
-backends="${PORTA_SLAM_BACKENDS:-$(awk 'NR > 1 && $2 == "yes" && $3 == "yes" {printf "%s%s", sep, $1; sep = ","}' "$out_dir/backends.txt")}"
+with_device='NR > 1 && $2 == "yes" && $3 == "yes" {printf "%s%s", sep, $1; sep = ","}'
+backends="${PORTA_SLAM_BACKENDS:-$(awk "$with_device" "$out_dir/backends.txt")}"
 IFS=, read -r -a backend_list <<<"$backends"
 say "backends: ${backend_list[*]}"
 
@@ -217,7 +219,8 @@ fi
 # ---- 3d. Descriptor matching's scan: whether this host's CPU counts bits in vectors (porta_match_bench)
 if [ "${PORTA_SLAM_BA_BENCH:-1}" != 0 ]; then
   say "descriptor matching benchmark (loop verification, relocalisation)"
-  if cmake --build "$build_dir" --target porta_match_bench -j "${PORTA_JOBS:-$(nproc)}" >>"$out_dir/build.log" 2>&1; then
+  if cmake --build "$build_dir" --target porta_match_bench -j "${PORTA_JOBS:-$(nproc)}" \
+       >>"$out_dir/build.log" 2>&1; then
     # A CPU without AVX-512 VPOPCNTDQ reports the vector row as an error; that is an answer, not a failure.
     "$build_dir/bench/porta_match_bench" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
       >"$out_dir/match-bench.txt" 2>&1 || true
@@ -243,7 +246,8 @@ if [ -f "$out_dir/png-bench.txt" ]; then
 fi
 if [ -f "$out_dir/match-bench.txt" ]; then
   printf '\n### Descriptor matching on this host (porta_match_bench, medians of 5)\n\n```\n%s\n```\n' \
-    "$(grep -E '_median|not built|ERROR|VPOPCNTDQ' "$out_dir/match-bench.txt" | sed 's/ \{2,\}/  /g')" >>"$out_dir/report.md"
+    "$(grep -E '_median|not built|ERROR|VPOPCNTDQ' "$out_dir/match-bench.txt" | sed 's/ \{2,\}/  /g')" \
+    >>"$out_dir/report.md"
 fi
 cat "$out_dir/report.md"
 say "results in $out_dir (report.md, *.json, *.log, *.gpu.csv)"

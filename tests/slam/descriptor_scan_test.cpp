@@ -172,8 +172,12 @@ TEST(DescriptorScan, MatchByDescriptorIsTheSequentialMatching) {
   for (int i = 0; i < 600; ++i) da.push_back(random_descriptor(rng));
   for (int j = 0; j < 700; ++j) {
     // A third copies an `a` feature within 0-60 bits (some shared by two `b` features: ownership).
-    db.push_back(rng() % 3 == 0 ? flipped(da[static_cast<std::size_t>(rng() % da.size())], static_cast<int>(rng() % 60), rng)
-                                : random_descriptor(rng));
+    if (rng() % 3 == 0) {
+      const Descriptor& source = da[static_cast<std::size_t>(rng() % da.size())];
+      db.push_back(flipped(source, static_cast<int>(rng() % 60), rng));
+    } else {
+      db.push_back(random_descriptor(rng));
+    }
   }
   const FrameFeatures a = features_of(da, rng);
   const FrameFeatures b = features_of(db, rng);
