@@ -29,24 +29,6 @@ using Clock = std::chrono::steady_clock;
 
 }  // namespace
 
-namespace mapping {
-
-bool spread_next_keyframe(bool spreading, std::int64_t interval_ns, std::int64_t last_mapping_ns,
-                          bool keyframe_waits) {
-  // At camera rate one thread keeps up, and the pool's workers would only add CPU time; as fast as
-  // possible keyframes come faster than one thread maps them. The pool starts when the last
-  // keyframe took longer than the interval before it, or when another already waits behind this
-  // one. Once on it stays on until a keyframe took less than a quarter of the interval with none
-  // waiting: a keyframe mapped on the pool takes less than the interval because of the pool, and a
-  // rule without that memory switched it off for the next keyframe, which then took too long
-  // again (on an H100 host as fast as possible, the pool ran on 37 % of the keyframes, alternating).
-  const bool known = interval_ns > 0;
-  if (!spreading) return keyframe_waits || (known && last_mapping_ns > interval_ns);
-  return keyframe_waits || !known || 4 * last_mapping_ns >= interval_ns;
-}
-
-}  // namespace mapping
-
 LocalMapper::LocalMapper(const SlamSettings& settings, Map& map)
     : settings_(settings), pyramid_(settings.frontend.levels, settings.frontend.scale_factor), map_(map) {
   if (const int threads = settings_.resolved_mapping_threads(); threads > 1) {
@@ -177,12 +159,13 @@ void LocalMapper::thread_main() {
   }
 }
 
-bool LocalMapper::spread_over_pool() {
+bool LocalMapper::spread_over_pool() const {
   if (pool_ == nullptr) return false;
   if (!realtime_) return true;  // deterministic: the caller waits for mapping
   std::lock_guard lock(queue_mutex_);
-  spreading_ = mapping::spread_next_keyframe(spreading_, keyframe_interval_ns_, last_mapping_ns_, !queue_.empty());
-  return spreading_;
+  // Realtime: only while keyframes come faster than one thread maps them (as fast as possible);
+  // at camera rate one thread keeps up, and the pool's workers would only add CPU time.
+  return keyframe_interval_ns_ > 0 && last_mapping_ns_ > keyframe_interval_ns_;
 }
 
 void LocalMapper::process(KeyFrame* keyframe) {

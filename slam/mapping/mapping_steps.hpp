@@ -105,13 +105,6 @@ std::uint64_t new_pass_mark();
 /// the oldest free one is held, to fix the gauge).
 BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& free, const ScalePyramid& pyramid);
 
-/// The realtime mode's choice of the mapping pool for the next keyframe (LocalMapper): from the
-/// last choice, the interval between the last two keyframes' arrivals (0: not known yet), the wall
-/// time the last keyframe's mapping took, and whether another keyframe waits behind the next one.
-/// On when mapping falls behind; off again only when it is far ahead (see the definition).
-bool spread_next_keyframe(bool spreading, std::int64_t interval_ns, std::int64_t last_mapping_ns,
-                          bool keyframe_waits);
-
 /// Step 6 (caller holds the lock): culls the covisible keyframes of `keyframe` whose close points
 /// are at least 90% seen by 3 other keyframes at the same or a finer scale. Returns the count.
 int cull_redundant_keyframes(KeyFrame* keyframe, double close_depth_m);

@@ -14,7 +14,6 @@
 
 #include "mapping_scene.hpp"
 #include "porta/slam/loop_closer.hpp"
-#include "slam/mapping/mapping_steps.hpp"
 
 namespace porta::slam::mapping_test {
 namespace {
@@ -507,29 +506,6 @@ TEST(Mapping, RealtimeMapperPausesWhileAFrameIsTrackedThenFinishes) {
   mapper.tracking_finished();
   EXPECT_EQ(mapper.queued_keyframes(), 0u);
   EXPECT_EQ(mapper.times().size(), scene.true_T_cw.size());
-}
-
-// The realtime mode's choice of the mapping pool (spread_next_keyframe), worked by hand: on when
-// mapping falls behind (the last keyframe took longer than the interval, or one already waits),
-// off only when a keyframe took less than a quarter of the interval with none waiting.
-TEST(Mapping, RealtimePoolChoiceTurnsOnWhenBehindAndOffOnlyWhenFarAhead) {
-  using mapping::spread_next_keyframe;
-  constexpr std::int64_t ms = 1'000'000;
-  // Off: stays off at camera rate (20 ms of mapping for a keyframe every 200 ms) and before the
-  // first interval is known; turns on when behind or when a keyframe waits.
-  EXPECT_FALSE(spread_next_keyframe(false, 200 * ms, 20 * ms, false));
-  EXPECT_FALSE(spread_next_keyframe(false, 0, 20 * ms, false));
-  EXPECT_FALSE(spread_next_keyframe(false, 10 * ms, 10 * ms, false));  // exactly in time
-  EXPECT_TRUE(spread_next_keyframe(false, 10 * ms, 10 * ms + 1, false));
-  EXPECT_TRUE(spread_next_keyframe(false, 200 * ms, 20 * ms, true));
-  // On: a keyframe mapped on the pool in less than the interval keeps it on (the case that used to
-  // switch it off), as does one waiting; a quarter of the interval or less with none waiting ends it.
-  EXPECT_TRUE(spread_next_keyframe(true, 10 * ms, 6 * ms, false));
-  EXPECT_TRUE(spread_next_keyframe(true, 10 * ms, 2'500'000, false));  // exactly a quarter
-  EXPECT_FALSE(spread_next_keyframe(true, 10 * ms, 2'500'000 - 1, false));
-  EXPECT_TRUE(spread_next_keyframe(true, 10 * ms, 1 * ms, true));
-  EXPECT_TRUE(spread_next_keyframe(true, 0, 1 * ms, false));
-  EXPECT_FALSE(spread_next_keyframe(true, 200 * ms, 40 * ms, false));
 }
 
 }  // namespace

@@ -103,8 +103,8 @@ class LocalMapper {
   KeyFrame* pop_keyframe();
   /// Whether this keyframe's linking, triangulation, fusion and bundle adjustment use the pool:
   /// always in the deterministic mode, in the realtime one while mapping is slower than keyframes
-  /// arrive (with hysteresis, see the definition). Their results are the same either way.
-  bool spread_over_pool();
+  /// arrive. Their results are the same either way.
+  bool spread_over_pool() const;
 
   const SlamSettings settings_;
   const ScalePyramid pyramid_;
@@ -127,7 +127,6 @@ class LocalMapper {
   std::int64_t last_insert_ns_ = 0;
   std::int64_t keyframe_interval_ns_ = 0;
   std::int64_t last_mapping_ns_ = 0;
-  bool spreading_ = false;  ///< the realtime mode's last choice of the pool (spread_over_pool())
   int keyframes_without_ba_ = 0;  ///< processed since local BA last ran (mapping thread only)
   std::function<void(KeyFrame*)> keyframe_processed_;
   std::vector<MapPoint*> recent_points_;  ///< points created by the last keyframes, checked by culling
