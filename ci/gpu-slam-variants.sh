@@ -11,7 +11,8 @@
 #   usage: ci/gpu-slam-variants.sh OUT_DIR ROUNDS VARIANT...
 #   e.g.   ci/gpu-carried.sh .deps OUT ci/gpu-slam-variants.sh   (with PORTA_SLAM_VARIANTS and
 #          PORTA_SLAM_ROUNDS set, as gpu-carried.sh passes only OUT_DIR)
-# Environment: PORTA_SLAM_VARIANTS (space-separated, when no VARIANT is given), PORTA_SLAM_ROUNDS
+# Environment: PORTA_SLAM_VARIANTS (when no VARIANT is given; separated by spaces, or by ';' when
+# a setting holds spaces, e.g. "a=ci/gpu-slam.sh; b=ci/gpu-slam.sh:PORTA_SLAM_RUN_ARGS=--x 1"), PORTA_SLAM_ROUNDS
 # (default 3), and whatever gpu-slam.sh reads; PORTA_SLAM_WORK defaults to OUT_DIR/work (shared by
 # the variants: the sequence is rendered once).
 set -uo pipefail
@@ -20,7 +21,17 @@ out="${1:?usage: ci/gpu-slam-variants.sh OUT_DIR [ROUNDS VARIANT...]}"
 rounds="${2:-${PORTA_SLAM_ROUNDS:-3}}"
 shift $(( $# >= 2 ? 2 : 1 ))
 variants=("$@")
-[ ${#variants[@]} -gt 0 ] || read -r -a variants <<<"${PORTA_SLAM_VARIANTS:-}"
+if [ ${#variants[@]} -eq 0 ]; then
+  if [[ "${PORTA_SLAM_VARIANTS:-}" == *";"* ]]; then  # ';'-separated: settings may hold spaces
+    IFS=';' read -r -a listed <<<"$PORTA_SLAM_VARIANTS"
+    for v in "${listed[@]}"; do
+      v="${v#"${v%%[![:space:]]*}"}" v="${v%"${v##*[![:space:]]}"}"
+      [ -n "$v" ] && variants+=("$v")
+    done
+  else
+    read -r -a variants <<<"${PORTA_SLAM_VARIANTS:-}"
+  fi
+fi
 say() { echo "gpu-slam-variants.sh: $*"; }
 if ! [[ "$rounds" =~ ^[1-9][0-9]?$ ]]; then
   say "ROUNDS must be a whole number from 1 to 99, got '$rounds'"

@@ -90,6 +90,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.tracking_releases_map_lock = options.tracking_releases_map_lock;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.keyframe_queue_limit = options.keyframe_queue;
+  settings.min_frames_between_keyframes = options.keyframe_gap;
   settings.projection_on_backend = options.projection_on_backend;
   settings.validate();
   return settings;
@@ -148,6 +149,10 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
               options.mode == slam::RunMode::realtime ? "realtime" : "deterministic", options.first, end - 1,
               settings.frontend.levels, settings.frontend.scale_factor, settings.frontend.fast_threshold,
               settings.frontend.cell_width);
+  if (settings.min_frames_between_keyframes > 0) {
+    std::printf("keyframes at least %d frames apart unless tracking is weak (--keyframe-gap)\n",
+                settings.min_frames_between_keyframes);
+  }
   if (options.rate > 0.0) {
     std::printf("playback  %.3gx the recorded frame rate (frames are handed over at their time stamps)\n",
                 options.rate);
@@ -486,6 +491,9 @@ std::string slam_run_options_usage() {
          "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
          "  --ba-tolerance X    realtime: local BA ends a stage when an iteration lowers its cost by\n"
          "                      at most X of it, 0 < X < 1 (default 0.001; deterministic: 1e-6)\n"
+         "  --keyframe-gap N    a frame that tracks well becomes a keyframe only N or more frames\n"
+         "                      after the last one (default 0, as ORB-SLAM2 stereo; at most 10):\n"
+         "                      less mapping CPU, poses between keyframes from tracking alone\n"
          "  --keyframes-while-mapping on|off\n"
          "                      realtime: a keyframe the scene needs is made while mapping is busy\n"
          "                      and none waits (default on; off: only when mapping is idle, as\n"
@@ -540,6 +548,8 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.mapping_threads = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxMappingThreads);
   } else if (option == "--keyframe-queue") {
     options.keyframe_queue = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxKeyframeQueueLimit);
+  } else if (option == "--keyframe-gap") {
+    options.keyframe_gap = parse_int(option, cursor.value(option), 0, slam::SlamSettings{}.max_frames_between_keyframes);
   } else if (option == "--keyframes-while-mapping") {
     const std::string value = cursor.value(option);
     if (value != "on" && value != "off") {

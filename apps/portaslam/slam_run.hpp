@@ -24,6 +24,7 @@ struct SlamRunOptions {
   bool tracking_releases_map_lock = false;  ///< SlamSettings::tracking_releases_map_lock
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
   int keyframe_queue = 2;         ///< SlamSettings::keyframe_queue_limit
+  int keyframe_gap = 0;           ///< SlamSettings::min_frames_between_keyframes
   bool projection_on_backend = true;  ///< SlamSettings::projection_on_backend
   bool pinned_input = true;       ///< pairs read into the System's input images (else copied on submit)
   slam::RunMode mode = slam::RunMode::realtime;

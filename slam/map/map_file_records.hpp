@@ -102,6 +102,7 @@ void for_each_setting(Settings& s, Visit&& visit) {
   visit("projection_on_backend", s.projection_on_backend);
   visit("min_tracked_inliers", s.min_tracked_inliers);
   visit("max_frames_between_keyframes", s.max_frames_between_keyframes);
+  visit("min_frames_between_keyframes", s.min_frames_between_keyframes);
   visit("mapping_thread_idle_priority", s.mapping_thread_idle_priority);
   visit("mapping_yields_to_tracking", s.mapping_yields_to_tracking);
   visit("loop_closing", s.loop_closing);

@@ -40,6 +40,9 @@ void SlamSettings::validate() const {
   require(min_tracked_inliers >= 3, "min_tracked_inliers must be >= 3, got " + std::to_string(min_tracked_inliers));
   require(max_frames_between_keyframes >= 1,
           "max_frames_between_keyframes must be >= 1, got " + std::to_string(max_frames_between_keyframes));
+  require(min_frames_between_keyframes >= 0 && min_frames_between_keyframes <= max_frames_between_keyframes,
+          "min_frames_between_keyframes must be in [0, max_frames_between_keyframes = " +
+              std::to_string(max_frames_between_keyframes) + "], got " + std::to_string(min_frames_between_keyframes));
   require(mapping_threads >= 0 && mapping_threads <= kMaxMappingThreads,
           "mapping_threads must be in [0, " + std::to_string(kMaxMappingThreads) + "] (0 = by the machine), got " +
               std::to_string(mapping_threads));

@@ -500,7 +500,9 @@ bool Tracker::Impl::need_new_keyframe(const Frame& frame) const {
 
   const bool max_frames_passed =
       frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.max_frames_between_keyframes);
-  const bool idle_and_passed = mapper_free;  // min frames between keyframes: 0, as ORB-SLAM2 stereo
+  const bool idle_and_passed =
+      mapper_free &&
+      frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.min_frames_between_keyframes);
   const bool weak = local_map_inliers < 0.25 * reference_matches || need_close;
   const bool fewer_than_reference =
       (local_map_inliers < ratio * reference_matches || need_close) && local_map_inliers > 15;

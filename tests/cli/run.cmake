@@ -16,6 +16,8 @@ porta_cli_test(run_bad_mode EXIT 1 STDERR "--mode must be realtime or determinis
 porta_cli_test(run_unknown_option EXIT 1 STDERR "unknown option '--speed'" ARGS run --speed 2)
 porta_cli_test(run_bad_ba_every EXIT 1 STDERR "option --ba-every expects an integer in \\[0, 1000\\], got '-1'"
                ARGS run --dataset kitti x --ba-every -1)
+porta_cli_test(run_bad_keyframe_gap EXIT 1 STDERR "option --keyframe-gap expects an integer in \\[0, 10\\], got '11'"
+               ARGS run --dataset kitti x --keyframe-gap 11)
 porta_cli_test(run_bad_keyframe_queue EXIT 1 STDERR "option --keyframe-queue expects an integer in \\[0, 100\\], got '101'"
                ARGS run --dataset kitti x --keyframe-queue 101)
 porta_cli_test(run_bad_ba_tolerance EXIT 1

@@ -66,6 +66,7 @@ TEST_F(MapFile, SettingsRoundTripAndALoadedMapContinuesAfterTheLargestIds) {
   settings.projection_on_backend = false;
   settings.min_tracked_inliers = 25;
   settings.max_frames_between_keyframes = 7;
+  settings.min_frames_between_keyframes = 3;
   settings.mapping_thread_idle_priority = false;
   settings.mapping_yields_to_tracking = false;
   Map map;
@@ -90,6 +91,7 @@ TEST_F(MapFile, SettingsRoundTripAndALoadedMapContinuesAfterTheLargestIds) {
   EXPECT_FALSE(c.settings.projection_on_backend);
   EXPECT_EQ(c.settings.min_tracked_inliers, 25);
   EXPECT_EQ(c.settings.max_frames_between_keyframes, 7);
+  EXPECT_EQ(c.settings.min_frames_between_keyframes, 3);
   EXPECT_FALSE(c.settings.mapping_thread_idle_priority);
   EXPECT_FALSE(c.settings.mapping_yields_to_tracking);
   EXPECT_TRUE(c.place_database.empty());

@@ -322,6 +322,22 @@ TEST(SlamSettings, KeyframeQueueLimitIsBounded) {
   EXPECT_NO_THROW(settings.validate());
 }
 
+TEST(SlamSettings, MinimumFramesBetweenKeyframesIsWithinTheMaximum) {
+  SlamSettings settings = test_settings();
+  EXPECT_EQ(settings.min_frames_between_keyframes, 0) << "the default: ORB-SLAM2's for stereo";
+  for (const int bad : {-1, settings.max_frames_between_keyframes + 1}) {
+    settings.min_frames_between_keyframes = bad;
+    try {
+      settings.validate();
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("min_frames_between_keyframes"), std::string::npos) << e.what();
+    }
+  }
+  settings.min_frames_between_keyframes = settings.max_frames_between_keyframes;
+  EXPECT_NO_THROW(settings.validate());
+}
+
 TEST(SlamSettings, ThreadNiceValuesAreNiceValuesAndKeyframesWhileMappingIsOn) {
   SlamSettings settings = test_settings();
   EXPECT_EQ(settings.mapping_thread_nice, 0) << "the default: the caller's";

@@ -100,6 +100,47 @@ TEST(Tracking, InitialisesOnFirstFrameAndFollowsThePathWithinCentimetres) {
       keyframes, p.map.num_points(), worst_step_m, worst_step_deg, steps_over_2cm, worst_m, worst_deg);
 }
 
+// SlamSettings::min_frames_between_keyframes (ORB-SLAM2's mMinFrames): on this path, where the
+// tracker never runs weak, keyframes come at least that many frames apart; without it (the
+// default 0) some come closer. The poses stay within the first test's bounds.
+TEST(Tracking, KeyframesKeepTheMinimumGapBetweenThem) {
+  const World w(7);
+  const auto keyframe_frames = [&](int gap, double& worst_m) {
+    SlamSettings settings = w.settings;
+    settings.min_frames_between_keyframes = gap;
+    settings.validate();
+    Pipeline p(w, settings);
+    p.run(w, kFrames, 7);
+    std::vector<int> frames;
+    worst_m = 0.0;
+    for (int k = 0; k < kFrames; ++k) {
+      const TrackingResult& r = p.results[static_cast<std::size_t>(k)];
+      EXPECT_EQ(r.state, TrackingState::ok) << "gap " << gap << ", frame " << k << ": " << r.lost_reason;
+      if (r.keyframe_inserted) frames.push_back(k);
+      worst_m = std::max(worst_m, translation_error_m(r.T_cw, w.T_cw[static_cast<std::size_t>(k)]));
+    }
+    return frames;
+  };
+  const auto closest = [](const std::vector<int>& frames) {
+    int gap = 1 << 30;
+    for (std::size_t i = 1; i < frames.size(); ++i) gap = std::min(gap, frames[i] - frames[i - 1]);
+    return gap;
+  };
+  double worst0_m = 0.0, worst3_m = 0.0;
+  const std::vector<int> gap0 = keyframe_frames(0, worst0_m);
+  const std::vector<int> gap3 = keyframe_frames(3, worst3_m);
+  ASSERT_GE(gap0.size(), 4u);
+  ASSERT_GE(gap3.size(), 4u);
+  EXPECT_EQ(gap3.front(), 0) << "the first frame is the first keyframe";
+  EXPECT_LT(closest(gap0), 3) << "without a gap, keyframes come closer than 3 frames on this path";
+  EXPECT_GE(closest(gap3), 3);
+  EXPECT_LT(gap3.size(), gap0.size());
+  EXPECT_LT(worst0_m, 0.05);
+  EXPECT_LT(worst3_m, 0.05);
+  std::printf("keyframes: %zu without a gap (closest %d frames apart), %zu with a gap of 3; worst error %.4f, %.4f m\n",
+              gap0.size(), closest(gap0), gap3.size(), worst0_m, worst3_m);
+}
+
 // A jolt: the camera turns 5 degrees within one frame (frame 25) and goes on straight, so the
 // constant-velocity prediction for frame 25 is 5 degrees off. Where it points, a repeated texture
 // (a façade's windows: twins of some of the points, same descriptors, placed exactly where the

@@ -40,6 +40,12 @@ struct SlamSettings {
   int min_tracked_inliers = 30;
   /// Most keyframes between forced keyframes (ORB-SLAM2: the frame rate).
   int max_frames_between_keyframes = 10;
+  /// Fewest frames after a keyframe before a frame that tracks well (not weak, see
+  /// Tracker::need_new_keyframe) may become the next one (ORB-SLAM2's mMinFrames; 0, its stereo
+  /// value, lets the next frame). Fewer keyframes, each with less local mapping to do: the CPU a
+  /// paced camera costs falls, and the pose of every frame between keyframes is tracking's alone
+  /// (docs/USER_GUIDE.md, "Keyframes"). At most max_frames_between_keyframes.
+  int min_frames_between_keyframes = 0;
   /// Realtime mode, Linux: the mapping thread runs at idle priority (SCHED_IDLE), so that it uses
   /// the cores tracking leaves free and never delays a frame. false: the caller's priority.
   bool mapping_thread_idle_priority = true;
