@@ -100,7 +100,8 @@ fi
 
 # ---- 3. Runs --------------------------------------------------------------------------------------
 # run_slam NAME ARGS...: one `portaslam run` on the sequence; summary in OUT_DIR/NAME.json, log in
-# OUT_DIR/NAME.log, frames.csv and mapping.csv in OUT_DIR/NAME.*.csv, outputs in WORK/NAME, GPU
+# OUT_DIR/NAME.log, frames.csv and mapping.csv in OUT_DIR/NAME.*.csv, the KITTI-format trajectory in
+# OUT_DIR/NAME.trajectory_kitti.txt, outputs in WORK/NAME, GPU
 # samples in OUT_DIR/NAME.gpu.csv (timed runs only).
 sampler=""
 start_sampler() {
@@ -121,6 +122,7 @@ run_slam() {
   local rc=$?
   cp "$work/$name/frames.csv" "$out_dir/$name.frames.csv" 2>/dev/null  # per frame: inliers, stage times
   cp "$work/$name/mapping.csv" "$out_dir/$name.mapping.csv" 2>/dev/null  # per keyframe: mapping's steps
+  cp "$work/$name/trajectory_kitti.txt" "$out_dir/$name.trajectory_kitti.txt" 2>/dev/null  # for `portaslam eval` (RPE)
   if [ $rc != 0 ]; then
     say "$name FAILED (exit $rc):"
     tail -5 "$out_dir/$name.log"

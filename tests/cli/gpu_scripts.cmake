@@ -54,6 +54,15 @@ foreach(case "rounds|PORTA_SLAM_ROUNDS=x|PORTA_SLAM_VARIANTS=a=ci/gpu-slam.sh|RO
   set_tests_properties(cli.gpu_slam_variants_refuses_${id} PROPERTIES LABELS cli TIMEOUT 30
                        PASS_REGULAR_EXPRESSION "gpu-slam-variants.sh: ${message}")
 endforeach()
+# Variants listed with ';' (settings may then hold spaces): the list is split there and each
+# variant trimmed; the first one's missing script is named with its setting, spaces and all.
+add_test(NAME cli.gpu_slam_variants_refuses_in_a_semicolon_list
+         COMMAND ${CMAKE_COMMAND} -E env PORTA_SLAM_ROUNDS=1
+                 "PORTA_SLAM_VARIANTS= a=no/such.sh:PORTA_SLAM_RUN_ARGS=--keyframe-gap 3 $<SEMICOLON> b=ci/gpu-slam.sh"
+                 ${PORTA_BASH} ${CMAKE_SOURCE_DIR}/ci/gpu-slam-variants.sh ${porta_cli_dir}/gpu_slam_variants_refused)
+set_tests_properties(cli.gpu_slam_variants_refuses_in_a_semicolon_list PROPERTIES LABELS cli TIMEOUT 30
+                     PASS_REGULAR_EXPRESSION
+                     "gpu-slam-variants.sh: bad variant 'a=no/such.sh:PORTA_SLAM_RUN_ARGS=--keyframe-gap 3': expected")
 find_package(Python3 COMPONENTS Interpreter QUIET)
 if(Python3_Interpreter_FOUND)
   file(MAKE_DIRECTORY ${porta_cli_dir}/slam_variants_empty)
