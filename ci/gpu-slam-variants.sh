@@ -12,9 +12,9 @@
 #   e.g.   ci/gpu-carried.sh .deps OUT ci/gpu-slam-variants.sh   (with PORTA_SLAM_VARIANTS and
 #          PORTA_SLAM_ROUNDS set, as gpu-carried.sh passes only OUT_DIR)
 # Environment: PORTA_SLAM_VARIANTS (when no VARIANT is given; separated by spaces, or by ';' when
-# a setting holds spaces, e.g. "a=ci/gpu-slam.sh; b=ci/gpu-slam.sh:PORTA_SLAM_RUN_ARGS=--x 1"), PORTA_SLAM_ROUNDS
-# (default 3), and whatever gpu-slam.sh reads; PORTA_SLAM_WORK defaults to OUT_DIR/work (shared by
-# the variants: the sequence is rendered once).
+# a setting holds spaces, e.g. "a=ci/gpu-slam.sh; b=ci/gpu-slam.sh:PORTA_SLAM_RUN_ARGS=--x 1"),
+# PORTA_SLAM_ROUNDS (default 3), and whatever gpu-slam.sh reads; PORTA_SLAM_WORK defaults to
+# OUT_DIR/work (shared by the variants: the sequence is rendered once).
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 out="${1:?usage: ci/gpu-slam-variants.sh OUT_DIR [ROUNDS VARIANT...]}"

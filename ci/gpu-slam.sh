@@ -122,7 +122,7 @@ run_slam() {
   local rc=$?
   cp "$work/$name/frames.csv" "$out_dir/$name.frames.csv" 2>/dev/null  # per frame: inliers, stage times
   cp "$work/$name/mapping.csv" "$out_dir/$name.mapping.csv" 2>/dev/null  # per keyframe: mapping's steps
-  cp "$work/$name/trajectory_kitti.txt" "$out_dir/$name.trajectory_kitti.txt" 2>/dev/null  # for `portaslam eval` (RPE)
+  cp "$work/$name/trajectory_kitti.txt" "$out_dir/$name.trajectory_kitti.txt" 2>/dev/null  # for the RPE
   if [ $rc != 0 ]; then
     say "$name FAILED (exit $rc):"
     tail -5 "$out_dir/$name.log"

@@ -549,7 +549,8 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
   } else if (option == "--keyframe-queue") {
     options.keyframe_queue = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxKeyframeQueueLimit);
   } else if (option == "--keyframe-gap") {
-    options.keyframe_gap = parse_int(option, cursor.value(option), 0, slam::SlamSettings{}.max_frames_between_keyframes);
+    const int most = slam::SlamSettings{}.max_frames_between_keyframes;
+    options.keyframe_gap = parse_int(option, cursor.value(option), 0, most);
   } else if (option == "--keyframes-while-mapping") {
     const std::string value = cursor.value(option);
     if (value != "on" && value != "off") {

@@ -137,7 +137,8 @@ TEST(Tracking, KeyframesKeepTheMinimumGapBetweenThem) {
   EXPECT_LT(gap3.size(), gap0.size());
   EXPECT_LT(worst0_m, 0.05);
   EXPECT_LT(worst3_m, 0.05);
-  std::printf("keyframes: %zu without a gap (closest %d frames apart), %zu with a gap of 3; worst error %.4f, %.4f m\n",
+  std::printf("keyframes: %zu without a gap (closest %d frames apart), %zu with a gap of 3; "
+              "worst error %.4f, %.4f m\n",
               gap0.size(), closest(gap0), gap3.size(), worst0_m, worst3_m);
 }
 
