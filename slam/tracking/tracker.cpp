@@ -500,9 +500,9 @@ bool Tracker::Impl::need_new_keyframe(const Frame& frame) const {
 
   const bool max_frames_passed =
       frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.max_frames_between_keyframes);
-  const bool idle_and_passed =
-      mapper_free &&
-      frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.min_frames_between_keyframes);
+  // (0 asks nothing of the ids, which a caller of track() numbers as it likes.)
+  const auto min_gap = static_cast<std::uint64_t>(settings.min_frames_between_keyframes);
+  const bool idle_and_passed = mapper_free && (min_gap == 0 || frame.id >= last_keyframe_frame_id + min_gap);
   const bool weak = local_map_inliers < 0.25 * reference_matches || need_close;
   const bool fewer_than_reference =
       (local_map_inliers < ratio * reference_matches || need_close) && local_map_inliers > 15;
