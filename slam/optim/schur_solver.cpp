@@ -47,6 +47,8 @@ constexpr double kMaxDiagonal = 1e32;
 constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kParameterTolerance = 1e-8;
 constexpr double kGradientTolerance = 1e-10;
+/// A point's damped block is invertible when det / (product of its diagonal) is above this.
+constexpr double kMinRelativeDeterminant = 1e-12;
 
 double delta2(const SchurStage& stage, std::size_t i) {
   return stage.observations[i].is_stereo() ? stage.chi2_stereo : stage.chi2_mono;
@@ -392,9 +394,16 @@ double Solver::max_gradient() const {
 
 /// V^-1 of point j's damped block; false when it is singular.
 bool Solver::invert_point(std::size_t j, double mu) {
-  bool invertible = false;
-  damped(V_[j], mu).computeInverseWithCheck(V_inv_[j], invertible);
-  return invertible && V_inv_[j].allFinite();
+  // The test is relative to the block's scale (V of a distant point is small, its determinant
+  // tiny): for a positive definite V, det <= V00 V11 V22 (Hadamard), and the ratio falls towards 0
+  // as V nears singular. Eigen's computeInverseWithCheck compares det with an absolute 1e-12, and
+  // refused far points whose V is invertible (det ~1e-15 at diagonals of ~1e-2 and ~1e-4): each
+  // refusal failed the whole step, as if the reduced system were singular.
+  const Mat3 H = damped(V_[j], mu);
+  const double det = H.determinant();
+  if (!(det > kMinRelativeDeterminant * H(0, 0) * H(1, 1) * H(2, 2))) return false;
+  V_inv_[j] = H.inverse();
+  return V_inv_[j].allFinite();
 }
 
 // The damped step into step_c_ / step_p_; false when the reduced system is not positive definite.

@@ -328,6 +328,17 @@ TEST(OptimLocalBa, SchurSolverReachesTheOptimumCeresReaches) {
   expect_same_optimum(synthetic_scene(0, 33), "none fixed: the oldest is held (gauge)");
 }
 
+// Information far below a pixel's (sigma 30 000 px here; a distant point's block of the normal
+// equations is as small): every point's 3x3 block has a determinant ~1e-14, under Eigen's absolute
+// 1e-12 for an invertible matrix, though each is as well conditioned as at sigma 1 px. The solver
+// must judge invertibility relative to the block's scale, as Ceres (which inverts by Cholesky) does,
+// and reach Ceres' optimum; judged absolutely, every step would fail as singular.
+TEST(OptimLocalBa, SchurSolverStepsWhenThePointsInformationIsTiny) {
+  Scene s = synthetic_scene(2, 35, 1.0, 0.0);
+  for (BaObservation& o : s.observations) o.sigma2 = 9e8;
+  expect_same_optimum(s, "sigma 30 000 px");
+}
+
 // A point measured twice in one keyframe (two features on one point: rare in a map, allowed by the
 // interface) puts two cross terms in one diagonal block of the reduced system.
 TEST(OptimLocalBa, SchurSolverHandlesTwoObservationsOfAPointInOneKeyframe) {
