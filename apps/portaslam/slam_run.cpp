@@ -89,6 +89,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.keyframes_while_mapping = options.keyframes_while_mapping;
   settings.tracking_releases_map_lock = options.tracking_releases_map_lock;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
+  settings.realtime_bundle_adjustment_steps = options.ba_steps;
   settings.keyframe_queue_limit = options.keyframe_queue;
   settings.min_frames_between_keyframes = options.keyframe_gap;
   settings.projection_on_backend = options.projection_on_backend;
@@ -491,6 +492,9 @@ std::string slam_run_options_usage() {
          "                      wait (default 4; 0: only when none waits, as ORB-SLAM2)\n"
          "  --ba-tolerance X    realtime: local BA ends a stage when an iteration lowers its cost by\n"
          "                      at most X of it, 0 < X < 1 (default 0.001; deterministic: 1e-6)\n"
+         "  --ba-steps N        realtime: a local BA right after the last keyframe's runs N steps in\n"
+         "                      one stage, then drops the outliers (default 1; at most 100); a BA\n"
+         "                      after skipped ones, and every BA with 0, runs ORB-SLAM2's 5 + 10\n"
          "  --keyframe-gap N    a frame that tracks well becomes a keyframe only N or more frames\n"
          "                      after the last one (default 0, as ORB-SLAM2 stereo; at most 10):\n"
          "                      less mapping CPU, poses between keyframes from tracking alone\n"
@@ -565,6 +569,8 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     options.tracking_releases_map_lock = value == "steps";
   } else if (option == "--ba-every") {
     options.ba_every = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentEvery);
+  } else if (option == "--ba-steps") {
+    options.ba_steps = parse_int(option, cursor.value(option), 0, slam::SlamSettings::kMaxBundleAdjustmentSteps);
   } else if (option == "--ba-tolerance") {
     const std::string text = cursor.value(option);
     options.ba_tolerance = parse_double(option, text);

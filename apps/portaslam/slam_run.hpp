@@ -23,6 +23,7 @@ struct SlamRunOptions {
   bool keyframes_while_mapping = true;  ///< SlamSettings::keyframes_while_mapping
   bool tracking_releases_map_lock = false;  ///< SlamSettings::tracking_releases_map_lock
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
+  int ba_steps = 1;               ///< SlamSettings::realtime_bundle_adjustment_steps
   int keyframe_queue = 2;         ///< SlamSettings::keyframe_queue_limit
   int keyframe_gap = 0;           ///< SlamSettings::min_frames_between_keyframes
   bool projection_on_backend = true;  ///< SlamSettings::projection_on_backend

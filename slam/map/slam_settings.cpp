@@ -61,6 +61,9 @@ void SlamSettings::validate() const {
   require(realtime_bundle_adjustment_tolerance > 0.0 && realtime_bundle_adjustment_tolerance < 1.0,
           "realtime_bundle_adjustment_tolerance must be in (0, 1), got " +
               std::to_string(realtime_bundle_adjustment_tolerance));
+  require(realtime_bundle_adjustment_steps >= 0 && realtime_bundle_adjustment_steps <= kMaxBundleAdjustmentSteps,
+          "realtime_bundle_adjustment_steps must be in [0, " + std::to_string(kMaxBundleAdjustmentSteps) +
+              "] (0 = ORB-SLAM2's two stages always), got " + std::to_string(realtime_bundle_adjustment_steps));
   place_recognition.validate();
 }
 

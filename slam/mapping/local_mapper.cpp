@@ -237,10 +237,15 @@ void LocalMapper::process(KeyFrame* keyframe) {
       enough_keyframes = map_.num_keyframes() > 2;
     }
     if (enough_keyframes) {
-      mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, due ? &stop_requested_ : &abort_ba_,
-                                       [this] { pause_point(); }, pool,
-                                       realtime_ ? settings_.realtime_bundle_adjustment_tolerance
-                                                 : SlamSettings::kDeterministicBundleAdjustmentTolerance);
+      // Realtime, right after the keyframe before had its own: a few steps continue that one's work.
+      const int steps = realtime_ && keyframes_without_ba_ == 0 ? settings_.realtime_bundle_adjustment_steps : 0;
+      times.bundle_adjustment_iterations =
+          mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_,
+                                           due ? &stop_requested_ : &abort_ba_, [this] { pause_point(); }, pool,
+                                           realtime_ ? settings_.realtime_bundle_adjustment_tolerance
+                                                     : SlamSettings::kDeterministicBundleAdjustmentTolerance,
+                                           steps)
+              .iterations;
       times.bundle_adjustment_ran = true;
     }
     times.bundle_adjustment_ns = work_ns();

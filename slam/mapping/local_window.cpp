@@ -91,23 +91,27 @@ BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, cons
   return problem;
 }
 
-int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
-                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
-                            const std::function<void()>& between_iterations, cpu::ThreadPool* pool,
-                            double function_tolerance) {
+LocalBundleAdjustmentOutcome local_bundle_adjustment(
+    Map& map, KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid,
+    const std::atomic<bool>* stop_flag, const std::function<void()>& between_iterations,
+    cpu::ThreadPool* pool, double function_tolerance, int steps) {
   BaProblem problem;
   std::uint64_t generation = 0;
   {
     std::lock_guard lock(map.mutex);
-    if (keyframe->bad) return 0;
+    if (keyframe->bad) return {};
     problem = collect_local_window(keyframe, pyramid);
     generation = map.correction_generation;
   }
-  if (problem.points.empty() || problem.observations.empty()) return 0;
+  if (problem.points.empty() || problem.observations.empty()) return {};
 
   optim::LocalBundleAdjustmentOptions options;
   options.stop_flag = stop_flag;
   options.function_tolerance = function_tolerance;
+  if (steps > 0) {
+    options.first_iterations = steps;
+    options.second_iterations = 0;  // the outlier test still runs, on the one stage's result
+  }
   if (pool != nullptr && pool->size() > 1) {
     options.parallel_for = [pool](std::int64_t n, const std::function<void(std::int64_t)>& fn) {
       pool->parallel_for(0, n, fn);
@@ -119,8 +123,9 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
 
   std::lock_guard lock(map.mutex);
   // A loop correction moved the map meanwhile: this window's result is relative to the old map.
-  if (map.correction_generation != generation) return 0;
-  int erased = 0;
+  LocalBundleAdjustmentOutcome outcome;
+  outcome.iterations = result.iterations;
+  if (map.correction_generation != generation) return outcome;
   for (const std::size_t o : result.outlier_observations) {
     MapPoint* point = problem.points[problem.observations[o].point];
     KeyFrame* observer = problem.keyframes[problem.observations[o].keyframe];
@@ -128,7 +133,7 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
     const auto it = point->observations.find(observer);
     if (it == point->observations.end() || it->second != problem.observation_feature[o]) continue;
     Map::erase_observation(point, observer);
-    ++erased;
+    ++outcome.erased;
   }
   for (std::size_t k = 0; k < problem.keyframes.size(); ++k) {
     if (!problem.ba_keyframes[k].fixed && !problem.keyframes[k]->bad)
@@ -140,7 +145,7 @@ int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& se
     point->position = result.points[p];
     point->update_normal_and_depth(pyramid);
   }
-  return erased;
+  return outcome;
 }
 
 int cull_redundant_keyframes(KeyFrame* keyframe, double close_depth_m) {

@@ -77,13 +77,18 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
 
 /// Step 5 (locks the map itself): local bundle adjustment around `keyframe`; keyframe 0 is never
 /// moved. With a `pool` of more than one thread the solver's loops run on it (the same result).
-/// `function_tolerance`: LocalBundleAdjustmentOptions::function_tolerance. Returns the number of
-/// outlier observations erased.
-int local_bundle_adjustment(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
-                            const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag,
-                            const std::function<void()>& between_iterations = {},
-                            cpu::ThreadPool* pool = nullptr,
-                            double function_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance);
+/// `function_tolerance`: LocalBundleAdjustmentOptions::function_tolerance. `steps` > 0: one stage of
+/// at most that many iterations with the robust loss, then the outlier test (no second stage; see
+/// SlamSettings::realtime_bundle_adjustment_steps); 0: ORB-SLAM2's two stages.
+struct LocalBundleAdjustmentOutcome {
+  int erased = 0;      ///< outlier observations erased from the map
+  int iterations = 0;  ///< Levenberg-Marquardt iterations of both stages
+};
+LocalBundleAdjustmentOutcome local_bundle_adjustment(
+    Map& map, KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid,
+    const std::atomic<bool>* stop_flag, const std::function<void()>& between_iterations = {},
+    cpu::ThreadPool* pool = nullptr,
+    double function_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance, int steps = 0);
 
 /// A bundle adjustment copied out of the map under the lock, with the map objects each entry
 /// stands for (local and global bundle adjustment).

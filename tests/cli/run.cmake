@@ -18,6 +18,11 @@ porta_cli_test(run_bad_ba_every EXIT 1 STDERR "option --ba-every expects an inte
                ARGS run --dataset kitti x --ba-every -1)
 porta_cli_test(run_bad_keyframe_gap EXIT 1 STDERR "option --keyframe-gap expects an integer in \\[0, 10\\], got '11'"
                ARGS run --dataset kitti x --keyframe-gap 11)
+porta_cli_test(run_bad_ba_steps EXIT 1 STDERR "option --ba-steps expects an integer in \\[0, 100\\], got '101'"
+               ARGS run --dataset kitti x --ba-steps 101)
+porta_cli_test(run_ba_steps_not_a_number EXIT 1 STDERR "option --ba-steps expects an integer in \\[0, 100\\], got '1.5'"
+               ARGS run --dataset kitti x --ba-steps 1.5)
+porta_cli_test(run_ba_steps_without_value EXIT 1 STDERR "option --ba-steps needs a value" ARGS run --dataset kitti x --ba-steps)
 porta_cli_test(run_bad_keyframe_queue EXIT 1 STDERR "option --keyframe-queue expects an integer in \\[0, 100\\], got '101'"
                ARGS run --dataset kitti x --keyframe-queue 101)
 porta_cli_test(run_bad_ba_tolerance EXIT 1

@@ -30,7 +30,7 @@ endif()
 
 file(STRINGS ${WORK}/run/mapping.csv lines)
 list(POP_FRONT lines header)
-set(columns "keyframe,queued,interval_ms,spread,process_ms,cull_points_ms,triangulation_ms,fusion_ms,ba_ran,ba_ms,cull_keyframes_ms,total_ms")
+set(columns "keyframe,queued,interval_ms,spread,process_ms,cull_points_ms,triangulation_ms,fusion_ms,ba_ran,ba_ms,ba_iterations,cull_keyframes_ms,total_ms")
 if(NOT header STREQUAL columns)
   message(FATAL_ERROR "mapping.csv header: '${header}', expected '${columns}'")
 endif()
@@ -41,9 +41,13 @@ if(processed LESS keyframes OR processed LESS 3)
 endif()
 set(ms "[0-9]+\\.[0-9][0-9][0-9]")
 set(previous -1)
+set(ba_iterated FALSE)
 foreach(line IN LISTS lines)
   # Deterministic with two mapping threads: nothing queued behind, every keyframe on the pool.
-  if(NOT line MATCHES "^([0-9]+),0,${ms},1,(${ms}),(${ms}),(${ms}),(${ms}),[01],(${ms}),(${ms}),(${ms})$")
+  if(line MATCHES "^[0-9]+,0,${ms},1,${ms},${ms},${ms},${ms},1,${ms},[1-9][0-9]*,")
+    set(ba_iterated TRUE)  # a local BA that ran and logged its iterations
+  endif()
+  if(NOT line MATCHES "^([0-9]+),0,${ms},1,(${ms}),(${ms}),(${ms}),(${ms}),[01],(${ms}),[0-9]+,(${ms}),(${ms})$")
     message(FATAL_ERROR "mapping.csv: bad line '${line}'")
   endif()
   if(NOT CMAKE_MATCH_1 GREATER previous)
@@ -63,6 +67,9 @@ foreach(line IN LISTS lines)
     message(FATAL_ERROR "mapping.csv: '${line}': the steps sum to ${sum} us, more than the total ${total}")
   endif()
 endforeach()
+if(NOT ba_iterated)
+  message(FATAL_ERROR "mapping.csv: no keyframe's local BA ran with iterations logged")
+endif()
 
 # Tracking's time without the map's lock (frames.csv's unlocked_ms, the 16th field): none in the
 # deterministic mode; some with --tracking-map-lock steps in the realtime mode.

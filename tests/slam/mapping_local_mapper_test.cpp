@@ -311,6 +311,24 @@ TEST(SlamSettings, RealtimeBundleAdjustmentToleranceIsInTheOpenUnitInterval) {
   EXPECT_NO_THROW(settings.validate());
 }
 
+TEST(SlamSettings, RealtimeBundleAdjustmentStepsAreBounded) {
+  SlamSettings settings = test_settings();
+  EXPECT_EQ(settings.realtime_bundle_adjustment_steps, 1) << "the default";
+  for (const int bad : {-1, SlamSettings::kMaxBundleAdjustmentSteps + 1}) {
+    settings.realtime_bundle_adjustment_steps = bad;
+    try {
+      settings.validate();
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("realtime_bundle_adjustment_steps"), std::string::npos) << e.what();
+    }
+  }
+  for (const int good : {0, SlamSettings::kMaxBundleAdjustmentSteps}) {
+    settings.realtime_bundle_adjustment_steps = good;
+    EXPECT_NO_THROW(settings.validate()) << good;
+  }
+}
+
 TEST(SlamSettings, KeyframeQueueLimitIsBounded) {
   SlamSettings settings = test_settings();
   EXPECT_EQ(settings.keyframe_queue_limit, 2) << "the default";
@@ -428,7 +446,8 @@ void wait_until_processed(const LocalMapper& mapper) {
 TEST(Mapping, RealtimeModeFedOneAtATimeGivesTheDeterministicMap) {
   // True by construction: with nothing else touching the map and each keyframe processed before the
   // next arrives, the thread runs exactly the deterministic sequence of steps, when its local BA
-  // stops where the deterministic mode's does (the realtime default, 1e-3, stops sooner).
+  // runs the deterministic mode's two stages and stops where they do (the realtime defaults, one
+  // step after a keyframe that had its BA and a tolerance of 1e-3, stop sooner).
   const SyntheticScene scene{SceneSpec{}};
   Map deterministic_map;
   LocalMapper deterministic(test_settings(), deterministic_map);
@@ -437,6 +456,7 @@ TEST(Mapping, RealtimeModeFedOneAtATimeGivesTheDeterministicMap) {
   Map map;
   SlamSettings realtime = test_settings();
   realtime.realtime_bundle_adjustment_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance;
+  realtime.realtime_bundle_adjustment_steps = 0;
   LocalMapper mapper(realtime, map);
   TrackingStandIn tracking(scene, map, mapper);
   mapper.start();
@@ -448,6 +468,84 @@ TEST(Mapping, RealtimeModeFedOneAtATimeGivesTheDeterministicMap) {
   mapper.stop();
   EXPECT_EQ(mapper.times().size(), scene.true_T_cw.size());
   EXPECT_TRUE(MapSnapshot(map) == MapSnapshot(deterministic_map));
+}
+
+/// Keyframe poses ~2 cm and ~0.4 degrees off the truth (keyframe 0 exact), so that a local BA has
+/// work for more than one step.
+std::vector<SE3> perturbed_poses(const SyntheticScene& scene) {
+  std::vector<SE3> poses = scene.true_T_cw;
+  for (std::size_t k = 1; k < poses.size(); ++k) {
+    SE3 delta = SE3::Identity();
+    const double s = (k % 2 == 0) ? 1.0 : -1.0;
+    delta.linear() = Eigen::AngleAxisd(0.007, Eigen::Vector3d(1.0, s * 2.0, 0.5).normalized()).toRotationMatrix();
+    delta.translation() = Eigen::Vector3d(0.02 * s, -0.01, 0.015);
+    poses[k] = delta * poses[k];
+  }
+  return poses;
+}
+
+/// The realtime mapper fed one keyframe at a time, each processed before the next.
+std::vector<MappingTimes> map_one_at_a_time(const SyntheticScene& scene, const SlamSettings& settings) {
+  Map map;
+  LocalMapper mapper(settings, map);
+  TrackingStandIn tracking(scene, map, mapper);
+  const std::vector<SE3> poses = perturbed_poses(scene);
+  mapper.start();
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    tracking.insert(k, poses[k]);
+    wait_until_processed(mapper);
+  }
+  mapper.stop();
+  return mapper.times();
+}
+
+// SlamSettings::realtime_bundle_adjustment_steps: a local BA right after the keyframe before had
+// its own runs at most that many iterations; the first BA (keyframes 0 and 1 had none: the map was
+// too small) and every BA with 0 run ORB-SLAM2's two stages.
+TEST(Mapping, RealtimeBundleAdjustmentRightAfterAnotherRunsItsStepsOnly) {
+  SceneSpec spec;
+  spec.keyframes = 7;
+  spec.step_m = 0.2;
+  const SyntheticScene scene{spec};
+  for (const int steps : {0, 1, 2}) {
+    SCOPED_TRACE("steps " + std::to_string(steps));
+    SlamSettings settings = test_settings();
+    settings.realtime_bundle_adjustment_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance;
+    settings.realtime_bundle_adjustment_steps = steps;
+    const std::vector<MappingTimes> times = map_one_at_a_time(scene, settings);
+    ASSERT_EQ(times.size(), 7u);
+    EXPECT_FALSE(times[1].bundle_adjustment_ran);
+    ASSERT_TRUE(times[2].bundle_adjustment_ran);
+    EXPECT_GT(times[2].bundle_adjustment_iterations, 2) << "the first BA: both stages";
+    int most = 0;
+    for (std::size_t k = 3; k < times.size(); ++k) {
+      ASSERT_TRUE(times[k].bundle_adjustment_ran) << k;
+      EXPECT_GE(times[k].bundle_adjustment_iterations, 1) << k;
+      most = std::max(most, times[k].bundle_adjustment_iterations);
+    }
+    if (steps == 0) {
+      EXPECT_GT(most, 2) << "ORB-SLAM2's stages every time";
+    } else {
+      EXPECT_LE(most, steps);
+    }
+  }
+}
+
+// The deterministic mode is the accuracy reference: it always runs the two stages.
+TEST(Mapping, DeterministicModeIgnoresTheRealtimeBundleAdjustmentSteps) {
+  const SyntheticScene scene{SceneSpec{}};
+  const std::vector<SE3> poses = perturbed_poses(scene);
+  SlamSettings one_step = test_settings(), two_stages = test_settings();
+  one_step.realtime_bundle_adjustment_steps = 1;
+  two_stages.realtime_bundle_adjustment_steps = 0;
+  Map a, b;
+  LocalMapper mapper_a(one_step, a), mapper_b(two_stages, b);
+  run_deterministic(scene, poses, a, mapper_a);
+  run_deterministic(scene, poses, b, mapper_b);
+  EXPECT_TRUE(MapSnapshot(a) == MapSnapshot(b));
+  int most = 0;
+  for (const MappingTimes& t : mapper_a.times()) most = std::max(most, t.bundle_adjustment_iterations);
+  EXPECT_GT(most, 1);
 }
 
 TEST(Mapping, StopProcessesEveryQueuedKeyframe) {

@@ -43,6 +43,7 @@ struct MappingTimes {
   std::int64_t cull_keyframes_ns = 0;
   std::int64_t total_ns = 0;
   bool bundle_adjustment_ran = false;     ///< local BA ran (not skipped: keyframes waiting)
+  int bundle_adjustment_iterations = 0;   ///< its Levenberg-Marquardt iterations, both stages
 };
 
 class LocalMapper {

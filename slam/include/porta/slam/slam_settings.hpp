@@ -100,6 +100,17 @@ struct SlamSettings {
   /// five runs, docs/BENCHMARKS.md). The deterministic mode keeps 1e-6: the accuracy reference.
   double realtime_bundle_adjustment_tolerance = 1e-3;
   static constexpr double kDeterministicBundleAdjustmentTolerance = 1e-6;
+  /// Realtime mode: a local bundle adjustment that follows one of the keyframe before runs at most
+  /// this many Levenberg-Marquardt iterations in one stage with the robust loss, then drops the
+  /// outliers as ORB-SLAM2 does after its first stage. Consecutive windows share most of their
+  /// keyframes and points (a keyframe every ~2 frames on KITTI, ~40 in a window), so each
+  /// adjustment continues the one before: a keyframe's pose gets a step from every window it is in.
+  /// A local BA after keyframes went without one (mapping behind, `bundle_adjustment_every`) runs
+  /// ORB-SLAM2's two stages (5 robust iterations, the outliers dropped, 10 more). 0: the two stages
+  /// always. At camera rate on the 2-core machine, 1 cut local mapping's CPU by ~40 % at the same
+  /// RPE (docs/BENCHMARKS.md, "Local BA in one step"). The deterministic mode runs the two stages.
+  int realtime_bundle_adjustment_steps = 1;
+  static constexpr int kMaxBundleAdjustmentSteps = 100;
   /// Realtime mode: before a frame is tracked, tracking waits while this many keyframes (or more)
   /// wait for local mapping, so that it never runs further ahead of the map. 0 = it never waits
   /// (ORB-SLAM2: with 3 queued it makes no keyframe, and as fast as possible on an H200 the map it
