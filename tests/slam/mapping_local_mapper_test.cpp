@@ -311,17 +311,22 @@ TEST(SlamSettings, RealtimeBundleAdjustmentToleranceIsInTheOpenUnitInterval) {
   EXPECT_NO_THROW(settings.validate());
 }
 
+/// validate() refuses `settings` (whose `field` holds `value`) with a message naming the field.
+void expect_rejected_naming(const SlamSettings& settings, const std::string& field, int value) {
+  try {
+    settings.validate();
+    ADD_FAILURE() << field << " = " << value << " was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+  }
+}
+
 TEST(SlamSettings, RealtimeBundleAdjustmentStepsAreBounded) {
   SlamSettings settings = test_settings();
   EXPECT_EQ(settings.realtime_bundle_adjustment_steps, 1) << "the default";
   for (const int bad : {-1, SlamSettings::kMaxBundleAdjustmentSteps + 1}) {
     settings.realtime_bundle_adjustment_steps = bad;
-    try {
-      settings.validate();
-      ADD_FAILURE() << bad << " was accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("realtime_bundle_adjustment_steps"), std::string::npos) << e.what();
-    }
+    expect_rejected_naming(settings, "realtime_bundle_adjustment_steps", bad);
   }
   for (const int good : {0, SlamSettings::kMaxBundleAdjustmentSteps}) {
     settings.realtime_bundle_adjustment_steps = good;
@@ -345,12 +350,7 @@ TEST(SlamSettings, MinimumFramesBetweenKeyframesIsWithinTheMaximum) {
   EXPECT_EQ(settings.min_frames_between_keyframes, 0) << "the default: ORB-SLAM2's for stereo";
   for (const int bad : {-1, settings.max_frames_between_keyframes + 1}) {
     settings.min_frames_between_keyframes = bad;
-    try {
-      settings.validate();
-      ADD_FAILURE() << bad << " was accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("min_frames_between_keyframes"), std::string::npos) << e.what();
-    }
+    expect_rejected_naming(settings, "min_frames_between_keyframes", bad);
   }
   settings.min_frames_between_keyframes = settings.max_frames_between_keyframes;
   EXPECT_NO_THROW(settings.validate());
