@@ -139,9 +139,16 @@ LocalBundleAdjustmentOutcome local_bundle_adjustment(
     if (!problem.ba_keyframes[k].fixed && !problem.keyframes[k]->bad)
       problem.keyframes[k]->T_cw = result.T_cw[k];
   }
+  // A point is not moved beyond ten times the farthest depth a stereo match gives (bf /
+  // min_disparity_px: 771 m on KITTI) from its reference keyframe: no observation constrains its
+  // depth there, and nearly parallel rays let the adjustment run it off along them (to 23 km on the
+  // street loop's first 20 frames). It keeps its place, where its rays still constrain rotation.
+  // (Twice that bound also held points that relocalisation needed: tests/cli/covered_lens.cmake.)
+  const double far_m = 10.0 * settings.camera.bf() / settings.min_disparity_px;
   for (std::size_t p = 0; p < problem.points.size(); ++p) {
     MapPoint* point = problem.points[p];
     if (point->bad) continue;
+    if (point->reference != nullptr && (result.points[p] - point->reference->center()).norm() > far_m) continue;
     point->position = result.points[p];
     point->update_normal_and_depth(pyramid);
   }
