@@ -6,20 +6,15 @@
 // (without_map_lock): the pose optimisations and the projection matcher's kernel. Every loop that
 // decides something runs over feature indices or id-ordered containers, so the same frames give
 // the same bits.
-#include "porta/slam/tracker.hpp"
-
+// The state and the steps of the local map and keyframes: tracker_impl.hpp, tracker_local_map.cpp.
 #include <algorithm>
-#include <chrono>
-#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
-#include "frame_search.hpp"
-#include "porta/slam/elapsed.hpp"
 #include "porta/slam/loop_closer.hpp"
 #include "relocalisation.hpp"
-#include "porta/slam/projection_matcher.hpp"
+#include "tracker_impl.hpp"
 
 namespace porta::slam {
 
@@ -36,25 +31,6 @@ const char* to_string(TrackingState state) {
 }
 
 namespace {
-
-// ORB-SLAM2's constants for stereo tracking.
-constexpr double kMotionWindowPx = 7.0;     // motion-model search window at level 0 (doubled on retry)
-constexpr int kMotionMinMatches = 20;       // matches needed before optimising the motion-model pose
-constexpr int kConfidentMotionInliers = 50;  // fewer: also try the last pose and EPnP (no prediction)
-constexpr double kKeyframeWindowPx = 15.0;  // fallback: wide window, no bag-of-words vocabulary here
-constexpr int kKeyframeMinMatches = 15;
-constexpr int kMinPoseInliers = 10;
-constexpr double kLocalMapWindow = 1.0;  // th of the local-map search (3 after relocalisation)
-constexpr std::size_t kMaxLocalKeyframes = 80;
-constexpr std::size_t kCovisiblesPerKeyframe = 10;
-constexpr std::size_t kRelocalisationNeighbours = 5;
-constexpr int kMinInliersAfterRelocalisation = 50;  // ORB-SLAM2's bar for frames just relocalised  // tried first when tracking was just lost
-
-/// The keyframe itself, or its closest good ancestor when local mapping culled it.
-KeyFrame* good_or_ancestor(KeyFrame* keyframe) {
-  while (keyframe != nullptr && keyframe->bad) keyframe = keyframe->parent;
-  return keyframe;
-}
 
 void check_features(const FrameFeatures& f, int levels) {
   const std::size_t n = f.size();
@@ -79,72 +55,6 @@ void check_features(const FrameFeatures& f, int levels) {
 }
 
 }  // namespace
-
-struct Tracker::Impl {
-  Impl(const SlamSettings& s, Map& m, LocalMapper& lm, Backend& backend, const FrontendTables& tables,
-       LoopCloser* lc, int projection_queue)
-      : settings(s),
-        map(m),
-        mapper(lm),
-        loop_closer(lc),
-        pyramid(tables.settings.levels, tables.settings.scale_factor),
-        scales_q16(tables.scales_q16),
-        geometry{settings.camera, pyramid, scales_q16},
-        matcher(settings.projection_on_backend ? &backend : nullptr, scales_q16, projection_queue) {}
-
-  bool initialize(Frame& frame, TrackingResult& result);
-  int match_last_frame_from(Frame& frame, const Frame& last, const SE3& T_cw, double window_px);
-  bool track_motion_model(Frame& frame, Frame& last, TrackingResult& result);
-  bool track_reference_keyframe(Frame& frame, const Frame& last, TrackingResult& result);
-  bool track_local_map(Frame& frame, TrackingResult& result);
-  bool relocalise(Frame& frame, TrackingResult& result);
-  void update_last_frame(Frame& last) const;
-  void update_local_keyframes(Frame& frame);
-  int search_local_points(Frame& frame);
-  bool need_new_keyframe(const Frame& frame) const;
-  KeyFrame* create_keyframe(Frame& frame);
-  int optimize_pose(Frame& frame);
-  template <class Work>
-  bool without_map_lock(Frame& frame, Work&& work);
-
-  const SlamSettings settings;
-  Map& map;
-  LocalMapper& mapper;
-  LoopCloser* loop_closer;  // its database finds relocalisation candidates; null: no relocalisation
-  const ScalePyramid pyramid;
-  const std::vector<std::int32_t> scales_q16;
-  const tracking::SearchGeometry geometry;
-  ProjectionMatcher matcher;
-
-  SE3 velocity = SE3::Identity();  // T_cw(k) * T_wc(k-1)
-  bool has_velocity = false;
-  KeyFrame* reference_keyframe = nullptr;
-  std::uint64_t last_keyframe_frame_id = 0;
-  std::uint64_t last_relocalisation_frame = 0;
-  bool any_relocalisation = false;
-  std::uint64_t last_recovery_frame = 0;  // the last relocalisation from lost (not a motion hypothesis)
-  bool any_recovery = false;
-  // Stereo depths beyond this count as monocular in this frame's pose optimisations: infinite,
-  // except on a relocalisation from lost and the keyframe interval after it (track()).
-  double stereo_depth_limit = std::numeric_limits<double>::infinity();
-  SE3 T_last_ref = SE3::Identity();  // last frame relative to its reference keyframe
-  int local_map_inliers = 0;
-  std::vector<KeyFrame*> local_keyframes;
-  // search_local_points' buffers, kept across frames.
-  std::vector<tracking::ProjectedPoint> projected;
-  std::vector<ProjectionQuery> queries;
-  std::vector<Descriptor> query_descriptors;
-  // While track() runs: the lock it holds, which it may release (release_map_lock_while_computing),
-  // and its result, which counts the time without the lock and waiting to take it back.
-  std::unique_lock<std::mutex>* map_lock = nullptr;
-  TrackingResult* timed = nullptr;
-  bool release_map_lock = false;
-  bool map_moved = false;  // a loop correction moved the map while this frame released the lock
-  std::function<void()> unlocked_hook;
-  std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
-  std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
-  std::string lost_reason;
-};
 
 // ---- Initialisation -----------------------------------------------------------------------------
 
@@ -181,35 +91,6 @@ bool Tracker::Impl::initialize(Frame& frame, TrackingResult& result) {
   return true;
 }
 
-// ---- Work without the map's lock ----------------------------------------------------------------
-
-// Runs `work`, which touches no map object, with the map's lock released when allowed, and takes
-// the lock back before local mapping's next long step (Map::lock_first). Returns false when a loop
-// correction moved the map meanwhile: what `work` computed from copies made before is stale, and
-// the frame's pose has been moved with its reference keyframe (as update_last_frame moves the last
-// frame), for the caller to compute the step again.
-template <class Work>
-bool Tracker::Impl::without_map_lock(Frame& frame, Work&& work) {
-  if (!release_map_lock || map_lock == nullptr || timed == nullptr) {
-    work();
-    return true;
-  }
-  const std::uint64_t generation = map.correction_generation;
-  KeyFrame* anchor = good_or_ancestor(frame.reference_keyframe);
-  const SE3 anchor_T_cw = anchor != nullptr ? anchor->T_cw : SE3::Identity();
-  map_lock->unlock();
-  const auto start = std::chrono::steady_clock::now();
-  work();
-  if (unlocked_hook) unlocked_hook();
-  timed->unlocked_ns += elapsed_ns(start);
-  const auto wait_start = std::chrono::steady_clock::now();
-  *map_lock = map.lock_first();
-  timed->relock_wait_ns += elapsed_ns(wait_start);
-  if (map.correction_generation == generation) return true;
-  map_moved = true;
-  if (anchor != nullptr) frame.T_cw = frame.T_cw * anchor_T_cw.inverse() * anchor->T_cw;
-  return false;
-}
 
 // The frame's pose-only optimisation, solved without the lock on a copy of its matches' positions.
 int Tracker::Impl::optimize_pose(Frame& frame) {
@@ -336,219 +217,6 @@ bool Tracker::Impl::track_reference_keyframe(Frame& frame, const Frame& last, Tr
   return true;
 }
 
-// ---- Local map ----------------------------------------------------------------------------------
-
-void Tracker::Impl::update_local_keyframes(Frame& frame) {
-  // Votes: how many of the frame's points each keyframe observes, counted on the keyframes (a mark
-  // per frame instead of a map), then visited in id order (deterministic).
-  const std::uint64_t vote_mark = ++keyframe_vote_mark;
-  std::vector<KeyFrame*> voters;
-  for (MapPoint*& point : frame.points) {
-    if (point == nullptr) continue;
-    if (point->bad) {
-      point = nullptr;
-      continue;
-    }
-    for (const auto& [keyframe, feature] : point->observations) {
-      if (keyframe->tracking_vote_mark != vote_mark) {
-        keyframe->tracking_vote_mark = vote_mark;
-        keyframe->tracking_votes = 0;
-        voters.push_back(keyframe);
-      }
-      ++keyframe->tracking_votes;
-    }
-  }
-  if (voters.empty()) return;
-  std::sort(voters.begin(), voters.end(), ById{});
-
-  local_keyframes.clear();
-  const std::uint64_t local_mark = ++keyframe_local_mark;  // membership of local_keyframes
-  KeyFrame* most_shared = nullptr;
-  int most = 0;
-  for (KeyFrame* keyframe : voters) {
-    if (keyframe->bad) continue;
-    local_keyframes.push_back(keyframe);
-    keyframe->tracking_local_mark = local_mark;
-    if (keyframe->tracking_votes > most) {
-      most = keyframe->tracking_votes;
-      most_shared = keyframe;
-    }
-  }
-  // Widen by a neighbour of each: a covisible keyframe, a child and the parent (as ORB-SLAM2).
-  // Adds `k` when it is a good keyframe not listed yet; says whether it did.
-  const auto add_if_new = [&](KeyFrame* k) {
-    if (k == nullptr || k->bad || k->tracking_local_mark == local_mark) return false;
-    local_keyframes.push_back(k);
-    k->tracking_local_mark = local_mark;
-    return true;
-  };
-  const std::size_t voted = local_keyframes.size();
-  for (std::size_t k = 0; k < voted && local_keyframes.size() < kMaxLocalKeyframes; ++k) {
-    KeyFrame* keyframe = local_keyframes[k];
-    for (KeyFrame* covisible : keyframe->best_covisibles(kCovisiblesPerKeyframe)) {
-      if (add_if_new(covisible)) break;
-    }
-    for (const auto& [child, unused] : keyframe->children) {
-      if (add_if_new(child)) break;
-    }
-    add_if_new(keyframe->parent);
-  }
-  if (most_shared != nullptr) {
-    reference_keyframe = most_shared;
-    frame.reference_keyframe = most_shared;
-  }
-}
-
-int Tracker::Impl::search_local_points(Frame& frame) {
-  const std::uint64_t mark = ++frame_points_mark;
-  for (MapPoint* point : frame.points) {
-    if (point == nullptr) continue;
-    ++point->visible;
-    point->tracking_frame_mark = mark;
-  }
-  // The local points: each point of the local keyframes once, in the order first met (a mark per
-  // build instead of a hash set), projected as it is met (one pass over tens of thousands of
-  // keyframe features; a list first and the projection after touched every point twice).
-  // `count` says whether a projected point counts as seen (not on a second pass of the frame).
-  const auto project_local_points = [&](bool count) {
-    const std::uint64_t local_mark = ++local_points_mark;
-    const Eigen::Vector3d center = frame.center();
-    projected.clear();
-    for (const KeyFrame* keyframe : local_keyframes) {
-      for (MapPoint* point : keyframe->points) {
-        if (point == nullptr || point->bad || point->tracking_local_mark == local_mark) continue;
-        point->tracking_local_mark = local_mark;
-        if (point->tracking_frame_mark == mark) continue;  // matched already
-        tracking::ProjectedPoint p;
-        if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
-        if (count) ++point->visible;
-        projected.push_back(p);
-      }
-    }
-    if (!projected.empty()) {
-      tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, query_descriptors);
-    }
-  };
-  project_local_points(true);
-  if (projected.empty()) return 0;
-  std::vector<ProjectionResult> results;
-  const auto match = [&] {
-    matcher.set_frame(kernel_keypoints(*frame.features, scales_q16), frame.features->descriptors);
-    results = matcher.match(queries, query_descriptors);
-  };
-  if (!without_map_lock(frame, match)) {  // a loop correction moved the points: project them again
-    project_local_points(false);
-    if (projected.empty()) return 0;
-    match();
-  }
-  return tracking::accept_local_matches(frame, projected, queries, results);
-}
-
-bool Tracker::Impl::track_local_map(Frame& frame, TrackingResult& result) {
-  update_local_keyframes(frame);
-  search_local_points(frame);
-  optimize_pose(frame);
-  int inliers = 0;
-  for (std::size_t i = 0; i < frame.points.size(); ++i) {
-    MapPoint* point = frame.points[i];
-    if (point == nullptr) continue;
-    // Stereo: outliers are dropped right away (ORB-SLAM2); so is a point that local mapping culled
-    // or merged while the pose was solved without the lock.
-    if (frame.outlier[i] || point->bad) {
-      frame.points[i] = nullptr;
-      frame.outlier[i] = false;
-      continue;
-    }
-    ++point->found;
-    if (!point->observations.empty()) ++inliers;
-  }
-  result.matches_local_map = inliers;
-  local_map_inliers = inliers;
-  if (inliers < settings.min_tracked_inliers) {
-    lost_reason = "local map: " + std::to_string(inliers) + " inliers after pose optimisation (need " +
-                  "min_tracked_inliers = " + std::to_string(settings.min_tracked_inliers) + ")";
-    return false;
-  }
-  return true;
-}
-
-// ---- Keyframes ----------------------------------------------------------------------------------
-
-bool Tracker::Impl::need_new_keyframe(const Frame& frame) const {
-  if (reference_keyframe == nullptr) return false;
-  const std::size_t keyframes = map.num_keyframes();
-  const int min_observations = keyframes <= 2 ? 2 : 3;
-  const int reference_matches = reference_keyframe->tracked_points(min_observations);
-  const bool mapper_idle = mapper.accepts_keyframes();
-  // Busy with nothing queued counts as free (SlamSettings::keyframes_while_mapping).
-  const bool mapper_free = mapper_idle || (settings.keyframes_while_mapping && mapper.queued_keyframes() == 0);
-
-  // Close stereo points (reliable depth): tracked ones, and ones a keyframe could turn into points.
-  const FrameFeatures& f = *frame.features;
-  const double close = settings.close_depth_m();
-  int tracked_close = 0, untracked_close = 0;
-  for (std::size_t i = 0; i < f.size(); ++i) {
-    if (!f.has_depth(i) || f.depth_m[i] >= close) continue;
-    if (frame.points[i] != nullptr && !frame.outlier[i]) {
-      ++tracked_close;
-    } else {
-      ++untracked_close;
-    }
-  }
-  const bool need_close = tracked_close < 100 && untracked_close > 70;
-  const double ratio = keyframes < 2 ? 0.4 : 0.75;
-
-  const bool max_frames_passed =
-      frame.id >= last_keyframe_frame_id + static_cast<std::uint64_t>(settings.max_frames_between_keyframes);
-  // (0 asks nothing of the ids, which a caller of track() numbers as it likes.)
-  const auto min_gap = static_cast<std::uint64_t>(settings.min_frames_between_keyframes);
-  const bool idle_and_passed = mapper_free && (min_gap == 0 || frame.id >= last_keyframe_frame_id + min_gap);
-  const bool weak = local_map_inliers < 0.25 * reference_matches || need_close;
-  const bool fewer_than_reference =
-      (local_map_inliers < ratio * reference_matches || need_close) && local_map_inliers > 15;
-  if (!((max_frames_passed || idle_and_passed || weak) && fewer_than_reference)) return false;
-  // Idle, or busy with nothing queued: the keyframe waits for the step under way, which goes on.
-  if (mapper_free) return true;
-  mapper.interrupt_bundle_adjustment();
-  return mapper.queued_keyframes() < 3;
-}
-
-KeyFrame* Tracker::Impl::create_keyframe(Frame& frame) {
-  KeyFrame* keyframe = map.add_keyframe(frame);
-  // The frame's matches go to the keyframe; local mapping links their observations (and
-  // updates their descriptors and normals) when it processes the keyframe.
-  for (std::size_t i = 0; i < frame.points.size(); ++i) {
-    if (frame.points[i] != nullptr && !frame.points[i]->bad) keyframe->points[i] = frame.points[i];
-  }
-  // New points from the closest stereo features: all closer than close_depth_m, at least 100.
-  const FrameFeatures& f = *frame.features;
-  std::vector<std::pair<float, int>> by_depth;
-  for (std::size_t i = 0; i < f.size(); ++i) {
-    if (f.has_depth(i)) by_depth.emplace_back(f.depth_m[i], static_cast<int>(i));
-  }
-  std::sort(by_depth.begin(), by_depth.end());
-  const double close = settings.close_depth_m();
-  int points = 0;
-  for (const auto& [depth, feature] : by_depth) {
-    const auto i = static_cast<std::size_t>(feature);
-    MapPoint* existing = frame.points[i];
-    if (existing == nullptr || existing->observations.empty()) {
-      MapPoint* point = map.add_point(frame.unproject_stereo(i, settings.camera), keyframe, frame.id);
-      Map::add_observation(point, keyframe, feature);
-      point->update_descriptor();
-      point->update_normal_and_depth(pyramid);
-      frame.points[i] = point;
-      frame.outlier[i] = false;
-    }
-    ++points;
-    if (depth > close && points > 100) break;
-  }
-  frame.reference_keyframe = keyframe;
-  reference_keyframe = keyframe;
-  last_keyframe_frame_id = frame.id;
-  mapper.insert_keyframe(keyframe);
-  return keyframe;
-}
 
 // ---- Relocalisation -----------------------------------------------------------------------------
 
