@@ -87,6 +87,7 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.mapping_threads = options.mapping_threads;
   settings.bundle_adjustment_every = options.ba_every;
   settings.keyframes_while_mapping = options.keyframes_while_mapping;
+  settings.queued_keyframes_follow_ba = options.queued_follow_ba;
   settings.tracking_releases_map_lock = options.tracking_releases_map_lock;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.realtime_bundle_adjustment_steps = options.ba_steps;
@@ -502,6 +503,10 @@ std::string slam_run_options_usage() {
          "                      realtime: a keyframe the scene needs is made while mapping is busy\n"
          "                      and none waits (default on; off: only when mapping is idle, as\n"
          "                      ORB-SLAM2)\n"
+         "  --queued-follow-ba on|off\n"
+         "                      realtime: keyframes waiting for local mapping follow the\n"
+         "                      correction of each local BA written back, with their new points\n"
+         "                      (default on; off: they stay, as ORB-SLAM2)\n"
          "  --tracking-map-lock frame|steps\n"
          "                      realtime: tracking holds the map's lock for the whole frame\n"
          "                      (default frame, as ORB-SLAM2), or lets it go while it computes on\n"
@@ -561,6 +566,10 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
       throw CliError("--keyframes-while-mapping takes on or off, got '" + value + "'");
     }
     options.keyframes_while_mapping = value == "on";
+  } else if (option == "--queued-follow-ba") {
+    const std::string value = cursor.value(option);
+    if (value != "on" && value != "off") throw CliError("--queued-follow-ba takes on or off, got '" + value + "'");
+    options.queued_follow_ba = value == "on";
   } else if (option == "--tracking-map-lock") {
     const std::string value = cursor.value(option);
     if (value != "steps" && value != "frame") {

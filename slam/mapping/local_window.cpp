@@ -21,6 +21,32 @@ BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) 
   return collect_bundle_adjustment(local, pyramid);
 }
 
+/// Keyframes newer than the adjusted one wait for local mapping (or were made while it adjusted):
+/// tracking placed them, and the points they brought, against the map of before the adjustment,
+/// and none is in it. They follow the adjusted keyframe's correction, as the frames tracked
+/// against it do, so that tracking's next frame meets one map, not the adjusted window beside
+/// keyframes and points where they were before (a frame tracked against both lands between them).
+/// `adjusted_points` (id order) were adjusted themselves and stay.
+void carry_queued_keyframes(Map& map, const KeyFrame& adjusted, const SE3& T_cw_before,
+                              const std::vector<MapPoint*>& adjusted_points, const ScalePyramid& pyramid) {
+  const SE3 correction = adjusted.T_cw.inverse() * T_cw_before;  // the world before -> after
+  const SE3 undo = correction.inverse();
+  std::vector<MapPoint*> moved;
+  for (std::uint64_t id = adjusted.id + 1;; ++id) {
+    KeyFrame* queued = map.keyframe_by_id(id);
+    if (queued == nullptr) break;
+    if (queued->bad) continue;
+    queued->T_cw = queued->T_cw * undo;
+    for (MapPoint* point : queued->points) {
+      if (point == nullptr || point->bad || point->reference != queued) continue;
+      if (std::binary_search(adjusted_points.begin(), adjusted_points.end(), point, ById{})) continue;
+      point->position = correction * point->position;
+      moved.push_back(point);
+    }
+  }
+  for (MapPoint* point : moved) point->update_normal_and_depth(pyramid);
+}
+
 }  // namespace
 
 std::uint64_t new_pass_mark() {
@@ -135,6 +161,7 @@ LocalBundleAdjustmentOutcome local_bundle_adjustment(
     Map::erase_observation(point, observer);
     ++outcome.erased;
   }
+  const SE3 T_cw_before = keyframe->T_cw;
   for (std::size_t k = 0; k < problem.keyframes.size(); ++k) {
     if (!problem.ba_keyframes[k].fixed && !problem.keyframes[k]->bad)
       problem.keyframes[k]->T_cw = result.T_cw[k];
@@ -152,6 +179,8 @@ LocalBundleAdjustmentOutcome local_bundle_adjustment(
     point->position = result.points[p];
     point->update_normal_and_depth(pyramid);
   }
+  if (settings.queued_keyframes_follow_ba && !keyframe->bad)
+    carry_queued_keyframes(map, *keyframe, T_cw_before, problem.points, pyramid);
   return outcome;
 }
 

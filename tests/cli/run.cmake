@@ -117,6 +117,10 @@ porta_cli_test(run_bad_input EXIT 1 STDERR "--input takes pinned or copy, got 'g
 porta_cli_test(run_bad_keyframes_while_mapping EXIT 1
                STDERR "--keyframes-while-mapping takes on or off, got 'maybe'"
                ARGS run --dataset kitti x --keyframes-while-mapping maybe)
+porta_cli_test(run_bad_queued_follow_ba EXIT 1 STDERR "--queued-follow-ba takes on or off, got 'yes'"
+               ARGS run --dataset kitti x --queued-follow-ba yes)
+porta_cli_test(run_queued_follow_ba_without_value EXIT 1 STDERR "--queued-follow-ba"
+               ARGS run --dataset kitti x --queued-follow-ba)
 porta_cli_test(run_bad_tracking_map_lock EXIT 1
                STDERR "--tracking-map-lock takes frame or steps, got 'step'"
                ARGS run --dataset kitti x --tracking-map-lock step)

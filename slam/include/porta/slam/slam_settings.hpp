@@ -66,6 +66,14 @@ struct SlamSettings {
   /// against 474 deterministic, and an RPE 6-12 % above ORB-SLAM2's); with this, 465-471 (RPE
   /// 0.0101 -> 0.0090 m). false: ORB-SLAM2's rule.
   bool keyframes_while_mapping = true;
+  /// Realtime mode: when a local BA is written back, the keyframes still queued for local mapping
+  /// (or made while it ran) follow the correction of the keyframe it adjusted, with the points
+  /// they made, as the frames tracked against that keyframe do. Tracking placed them against the
+  /// map of before and no adjustment holds them, so without this the next frames are tracked
+  /// against the adjusted window beside them where they were and land between the two. As fast as
+  /// possible on an H100 it halved the RPE over one frame (docs/BENCHMARKS.md, "Queued keyframes
+  /// follow local BA"). No effect in the deterministic mode (nothing waits). false: as ORB-SLAM2.
+  bool queued_keyframes_follow_ba = true;
   /// Realtime mode: tracking lets the map's lock go while it computes on copies of map data (its
   /// pose-only optimisations and the projection matcher), so that local mapping takes it meanwhile
   /// (Tracker::release_map_lock_while_computing). false (the default): tracking holds it for the
