@@ -72,7 +72,9 @@ struct SlamSettings {
   /// map of before and no adjustment holds them, so without this the next frames are tracked
   /// against the adjusted window beside them where they were and land between the two. As fast as
   /// possible on an H100 it halved the RPE over one frame (docs/BENCHMARKS.md, "Queued keyframes
-  /// follow local BA"). No effect in the deterministic mode (nothing waits). false: as ORB-SLAM2.
+  /// follow local BA"). Only after a local BA of two stages, not a single step
+  /// (realtime_bundle_adjustment_steps). No effect in the deterministic mode (nothing waits).
+  /// false: as ORB-SLAM2.
   bool queued_keyframes_follow_ba = true;
   /// Realtime mode: tracking lets the map's lock go while it computes on copies of map data (its
   /// pose-only optimisations and the projection matcher), so that local mapping takes it meanwhile
