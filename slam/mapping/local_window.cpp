@@ -28,7 +28,7 @@ BaProblem collect_local_window(KeyFrame* keyframe, const ScalePyramid& pyramid) 
 /// keyframes and points where they were before (a frame tracked against both lands between them).
 /// `adjusted_points` (id order) were adjusted themselves and stay.
 void carry_queued_keyframes(Map& map, const KeyFrame& adjusted, const SE3& T_cw_before,
-                              const std::vector<MapPoint*>& adjusted_points, const ScalePyramid& pyramid) {
+                            const std::vector<MapPoint*>& adjusted_points, const ScalePyramid& pyramid) {
   const SE3 correction = adjusted.T_cw.inverse() * T_cw_before;  // the world before -> after
   const SE3 undo = correction.inverse();
   std::vector<MapPoint*> moved;

@@ -71,8 +71,8 @@ struct SlamSettings {
   /// they made, as the frames tracked against that keyframe do. Tracking placed them against the
   /// map of before and no adjustment holds them, so without this the next frames are tracked
   /// against the adjusted window beside them where they were and land between the two. As fast as
-  /// possible on an H100 it cut the RPE over one frame by 40-45 % (docs/BENCHMARKS.md, "Queued keyframes
-  /// follow local BA"). Only after a local BA of two stages, not a single step
+  /// possible on an H100 it cut the RPE over one frame by 40-45 % (docs/BENCHMARKS.md, "Queued
+  /// keyframes follow local BA"). Only after a local BA of two stages, not a single step
   /// (realtime_bundle_adjustment_steps). No effect in the deterministic mode (nothing waits).
   /// false: as ORB-SLAM2.
   bool queued_keyframes_follow_ba = true;
