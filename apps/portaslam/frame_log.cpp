@@ -57,12 +57,13 @@ std::string frame_log_csv(std::size_t first_frame, const std::vector<slam::Frame
 std::string mapping_log_csv(const std::vector<slam::MappingTimes>& times) {
   std::ostringstream out;
   out << "keyframe,queued,interval_ms,spread,process_ms,cull_points_ms,triangulation_ms,fusion_ms,ba_ran,ba_ms,"
-         "ba_iterations,cull_keyframes_ms,total_ms\n";
+         "ba_iterations,cull_keyframes_ms,total_ms,lock_wait_ms\n";
   for (const slam::MappingTimes& t : times) {
     out << t.keyframe_id << ',' << t.queued << ',' << ms(t.interval_ns) << ',' << int{t.spread} << ','
         << ms(t.process_ns) << ',' << ms(t.cull_points_ns) << ',' << ms(t.triangulate_ns) << ',' << ms(t.fuse_ns)
         << ',' << int{t.bundle_adjustment_ran} << ',' << ms(t.bundle_adjustment_ns) << ','
-        << t.bundle_adjustment_iterations << ',' << ms(t.cull_keyframes_ns) << ',' << ms(t.total_ns) << '\n';
+        << t.bundle_adjustment_iterations << ',' << ms(t.cull_keyframes_ns) << ',' << ms(t.total_ns) << ','
+        << ms(t.lock_wait_ns) << '\n';
   }
   return out.str();
 }

@@ -97,7 +97,7 @@ int export_command(const std::vector<std::string>& args) {
     slam::load_map(files[0], map);
     slam::MapCloud cloud;
     {
-      std::lock_guard<std::mutex> lock(map.mutex);
+      std::lock_guard lock(map.mutex);
       cloud = slam::map_cloud(map);
     }
     const slam::MapExportStats s = slam::write_map_ply(files[1], cloud, colouring);

@@ -183,7 +183,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     const auto load_start = std::chrono::steady_clock::now();
     system.load_map(options.load_map);
     summary_map_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
-    std::lock_guard<std::mutex> lock(system.map().mutex);
+    std::lock_guard lock(system.map().mutex);
     std::printf("map       %s: %zu keyframes, %zu map points, loaded in %.0f ms%s\n", options.load_map.c_str(),
                 system.map().num_keyframes(), system.map().num_points(), summary_map_load_ms,
                 options.localization ? "; localisation only (nothing is added)" : "");
@@ -242,7 +242,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     if (result.state == slam::TrackingState::not_initialized) waiting_reason = result.lost_reason;
     previous = result.state;
     if (summary.frames % SlamRunSummary::kMemorySampleFrames == 0 || i + 1 == end) {
-      std::lock_guard<std::mutex> lock(system.map().mutex);
+      std::lock_guard lock(system.map().mutex);
       summary.memory.push_back({summary.frames, resident_mib(), system.map().num_keyframes(), system.map().num_points()});
     }
     if (!options.quiet && (summary.frames % progress_every == 0 || i + 1 == end)) {
@@ -250,7 +250,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
       std::size_t keyframes = 0, points = 0;
       {
-        std::lock_guard<std::mutex> lock(system.map().mutex);
+        std::lock_guard lock(system.map().mutex);
         keyframes = system.map().num_keyframes();
         points = system.map().num_points();
       }
@@ -286,7 +286,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   slam::write_file_atomically((fs::path(options.out) / "mapping.csv").string(), mapping_log_csv(system.mapper().times()));
   slam::MapCloud cloud;  // for the export and the top view: the map the counts describe
   {
-    std::lock_guard<std::mutex> lock(system.map().mutex);
+    std::lock_guard lock(system.map().mutex);
     summary.keyframes = system.map().num_keyframes();
     summary.map_points = system.map().num_points();
     cloud = slam::map_cloud(system.map());

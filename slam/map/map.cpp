@@ -208,14 +208,14 @@ void KeyFrame::erase_connection(KeyFrame* other) { connections.erase(other); }
 
 // ---- Map ------------------------------------------------------------------------------------------
 
-std::unique_lock<std::mutex> Map::lock_first() {
+std::unique_lock<MapMutex> Map::lock_first() {
   first_waiters_.fetch_add(1);
   std::unique_lock lock(mutex);
   first_waiters_.fetch_sub(1);
   return lock;
 }
 
-bool Map::yield_to_waiters(std::unique_lock<std::mutex>& lock) {
+bool Map::yield_to_waiters(std::unique_lock<MapMutex>& lock) {
   if (first_waiters_.load() == 0) return false;
   lock.unlock();
   // std::mutex is not fair: re-locking at once would often win against the waiter it woke. Wait

@@ -116,7 +116,7 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
   return merged;
 }
 
-int fuse_with_neighbours(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
+int fuse_with_neighbours(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame* keyframe,
                          const SlamSettings& settings, const ScalePyramid& pyramid, cpu::ThreadPool* pool) {
   if (keyframe->bad) return 0;
   // Targets: the best covisible keyframes and, for each, its own best five (second order).

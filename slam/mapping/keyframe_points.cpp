@@ -6,7 +6,7 @@
 
 namespace porta::slam::mapping {
 
-std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<std::mutex>& lock, KeyFrame* keyframe,
+std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame* keyframe,
                                             const ScalePyramid& pyramid, cpu::ThreadPool* pool) {
   // A keyframe links ~1 000 points (a descriptor and a normal each): ~1 ms under the lock on a
   // desktop core, which a tracker running at hundreds of frames per second would wait for whole, so

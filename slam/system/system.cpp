@@ -126,7 +126,7 @@ TrackingResult System::track_next() {
   FrameRecord record;
   record.time_s = pending.time_s;
   if (result.state == TrackingState::ok && result.reference_keyframe != nullptr) {
-    std::lock_guard<std::mutex> lock(map_.mutex);
+    std::lock_guard lock(map_.mutex);
     record.tracked = true;
     record.reference = result.reference_keyframe;
     record.T_c_ref = result.T_cw * result.reference_keyframe->T_cw.inverse();
@@ -180,7 +180,7 @@ void System::save_map(const std::string& path) const {
 }
 
 Trajectory System::trajectory() const {
-  std::lock_guard<std::mutex> lock(map_.mutex);
+  std::lock_guard lock(map_.mutex);
   Trajectory trajectory;
   for (const FrameRecord& record : records_) {
     if (!record.tracked) continue;
@@ -199,7 +199,7 @@ Trajectory System::trajectory() const {
 }
 
 Trajectory System::keyframe_trajectory() const {
-  std::lock_guard<std::mutex> lock(map_.mutex);
+  std::lock_guard lock(map_.mutex);
   Trajectory trajectory;
   for (const KeyFrame* keyframe : map_.keyframes()) {
     trajectory.poses.push_back({keyframe->time_s, keyframe->T_cw.inverse()});

@@ -290,13 +290,13 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   TrackingResult result;
   Frame frame(frame_id, time_s, std::move(features), t.settings.camera);
   const auto wait_start = std::chrono::steady_clock::now();
-  std::unique_lock<std::mutex> lock = t.map.lock_first();  // local mapping's fusion yields to it
+  std::unique_lock<MapMutex> lock = t.map.lock_first();  // local mapping's fusion yields to it
   result.map_wait_ns = elapsed_ns(wait_start);
   const auto start = std::chrono::steady_clock::now();
   // Impl::without_map_lock may release `lock` and take it back, and counts the time in `result`.
   struct LockScope {
     Impl& t;
-    LockScope(Impl& impl, TrackingResult& result, std::unique_lock<std::mutex>& lock) : t(impl) {
+    LockScope(Impl& impl, TrackingResult& result, std::unique_lock<MapMutex>& lock) : t(impl) {
       t.map_lock = &lock;
       t.timed = &result;
       t.map_moved = false;

@@ -93,7 +93,7 @@ struct Tracker::Impl {
   std::vector<Descriptor> query_descriptors;
   // While track() runs: the lock it holds, which it may release (release_map_lock_while_computing),
   // and its result, which counts the time without the lock and waiting to take it back.
-  std::unique_lock<std::mutex>* map_lock = nullptr;
+  std::unique_lock<MapMutex>* map_lock = nullptr;
   TrackingResult* timed = nullptr;
   bool release_map_lock = false;
   bool map_moved = false;  // a loop correction moved the map while this frame released the lock

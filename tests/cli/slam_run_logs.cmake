@@ -30,7 +30,7 @@ endif()
 
 file(STRINGS ${WORK}/run/mapping.csv lines)
 list(POP_FRONT lines header)
-set(columns "keyframe,queued,interval_ms,spread,process_ms,cull_points_ms,triangulation_ms,fusion_ms,ba_ran,ba_ms,ba_iterations,cull_keyframes_ms,total_ms")
+set(columns "keyframe,queued,interval_ms,spread,process_ms,cull_points_ms,triangulation_ms,fusion_ms,ba_ran,ba_ms,ba_iterations,cull_keyframes_ms,total_ms,lock_wait_ms")
 if(NOT header STREQUAL columns)
   message(FATAL_ERROR "mapping.csv header: '${header}', expected '${columns}'")
 endif()

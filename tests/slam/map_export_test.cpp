@@ -216,7 +216,7 @@ TEST(MapExport, CloudHoldsTheGoodPointsWithTheirFirstKeyframeAndTheKeyframeCentr
   MapPoint* culled = map.add_point({4, 5, 6}, a, 0);
   MapPoint* p2 = map.add_point({7, 8, 9}, b, 1);
   Map::set_bad(culled);
-  std::lock_guard<std::mutex> lock(map.mutex);
+  std::lock_guard lock(map.mutex);
   const MapCloud cloud = map_cloud(map);
   ASSERT_EQ(cloud.points.size(), 2u);
   EXPECT_EQ(cloud.points[0].position, p0->position);

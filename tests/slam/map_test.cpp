@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -219,7 +220,7 @@ TEST(Map, YieldHandsTheLockToALockFirstWaiterAndTakesItBack) {
   EXPECT_TRUE(lock.owns_lock());
   std::atomic<bool> tracked{false};
   std::thread tracker([&] {
-    const std::unique_lock<std::mutex> tracking = map.lock_first();
+    const std::unique_lock<MapMutex> tracking = map.lock_first();
     tracked = true;
   });
   EXPECT_FALSE(tracked.load());  // it cannot run while the lock is held
@@ -228,6 +229,31 @@ TEST(Map, YieldHandsTheLockToALockFirstWaiterAndTakesItBack) {
   EXPECT_TRUE(tracked.load());  // it ran in between, and was done before the lock came back
   tracker.join();
   EXPECT_FALSE(map.yield_to_waiters(lock));
+}
+
+TEST(Map, TheMutexAddsUpEachThreadsWaitsToTakeIt) {
+  Map map;
+  const std::int64_t before = MapMutex::thread_wait_ns();
+  { std::lock_guard lock(map.mutex); }  // not contended: nothing waited
+  EXPECT_EQ(MapMutex::thread_wait_ns(), before);
+
+  constexpr auto kHeld = std::chrono::milliseconds(100);
+  std::unique_lock lock(map.mutex);
+  std::atomic<bool> asked{false};
+  std::int64_t waited_ns = -1;
+  std::thread other([&] {
+    const std::int64_t start = MapMutex::thread_wait_ns();  // a new thread starts at its own count
+    asked = true;
+    { std::lock_guard taken(map.mutex); }
+    waited_ns = MapMutex::thread_wait_ns() - start;
+  });
+  while (!asked.load()) std::this_thread::yield();
+  std::this_thread::sleep_for(kHeld);  // it reaches lock() within microseconds of asking
+  lock.unlock();
+  other.join();
+  EXPECT_EQ(MapMutex::thread_wait_ns(), before) << "the holder waited for nothing";
+  EXPECT_GT(waited_ns, 0) << "the other thread's wait was not counted";
+  EXPECT_LE(waited_ns, std::chrono::nanoseconds(kHeld).count() + 1'000'000'000);
 }
 
 TEST(FeatureGrid, InAreaMatchesBruteForce) {

@@ -289,6 +289,38 @@ TEST(Mapping, BundleAdjustmentEveryNthKeyframeRunsWhileKeyframesWait) {
   }
 }
 
+// Keyframes queued together: while others wait, triangulation stops after the first neighbour,
+// and with a pool only that neighbour's search is made ahead; the map is one thread's.
+TEST(Mapping, KeyframesQueuedTogetherGiveTheSameMapOnAPoolAsOnOneThread) {
+  SceneSpec spec;
+  spec.keyframes = 9;
+  spec.step_m = 0.15;
+  const SyntheticScene scene{spec};
+  std::vector<MapSnapshot> maps;
+  std::vector<std::uint64_t> triangulated;
+  for (const int threads : {1, 3}) {
+    SlamSettings settings = test_settings();
+    settings.mapping_threads = threads;
+    Map map;
+    LocalMapper mapper(settings, map);
+    TrackingStandIn tracking(scene, map, mapper);
+    for (std::size_t k = 0; k < 3; ++k) {
+      tracking.insert(k, scene.true_T_cw[k]);
+      mapper.process_all();
+    }
+    for (std::size_t k = 3; k < 9; ++k) tracking.insert(k, scene.true_T_cw[k]);
+    mapper.process_all();
+    ASSERT_EQ(mapper.times().size(), 9u);
+    EXPECT_EQ(mapper.times()[3].queued, 5u);
+    EXPECT_EQ(mapper.times()[3].spread, threads > 1);
+    maps.emplace_back(map);
+    triangulated.push_back(mapper.points_triangulated());
+  }
+  EXPECT_GT(triangulated[0], 0u);
+  EXPECT_EQ(triangulated[1], triangulated[0]);
+  EXPECT_TRUE(maps[0] == maps[1]);
+}
+
 TEST(SlamSettings, BundleAdjustmentEveryIsBounded) {
   SlamSettings settings = test_settings();
   EXPECT_NO_THROW(settings.validate());

@@ -32,8 +32,8 @@ double translation_error_m(const SE3& a, const SE3& b) {
   return (a.inverse().translation() - b.inverse().translation()).norm();
 }
 
-/// Whether another thread can take `mutex` now (std::mutex::try_lock by its owner is undefined).
-bool free_for_another_thread(std::mutex& mutex) {
+/// Whether another thread can take `mutex` now (try_lock by its owner is undefined).
+bool free_for_another_thread(MapMutex& mutex) {
   return std::async(std::launch::async, [&] {
            if (!mutex.try_lock()) return false;
            mutex.unlock();

@@ -42,6 +42,9 @@ struct MappingTimes {
   std::int64_t bundle_adjustment_ns = 0;
   std::int64_t cull_keyframes_ns = 0;
   std::int64_t total_ns = 0;
+  /// Of total_ns, the mapping thread's waits to take Map::mutex (held by tracking for its frame,
+  /// or by loop closing); the pool's workers take no lock.
+  std::int64_t lock_wait_ns = 0;
   bool bundle_adjustment_ran = false;     ///< local BA ran (not skipped: keyframes waiting)
   int bundle_adjustment_iterations = 0;   ///< its Levenberg-Marquardt iterations, both stages
 };

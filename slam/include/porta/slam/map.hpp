@@ -27,6 +27,7 @@
 #include "porta/keypoint.hpp"
 #include "porta/slam/frame.hpp"
 #include "porta/slam/id_map.hpp"
+#include "porta/slam/map_mutex.hpp"
 
 namespace porta::slam {
 
@@ -136,7 +137,7 @@ class KeyFrame {
 class Map {
  public:
   /// Guards all map data (see the file comment).
-  mutable std::mutex mutex;
+  mutable MapMutex mutex;
   /// Counts corrections that move the whole map (loop closing, global bundle adjustment write-back),
   /// under `mutex`. Work computed on a copy (local bundle adjustment) is discarded when this changed
   /// while it ran: writing it back would undo the correction.
@@ -144,12 +145,12 @@ class Map {
 
   /// Takes `mutex` for a thread whose latency counts (tracking): while it waits, long work under
   /// the lock hands the lock over at its next yield_to_waiters(). Does not need the lock.
-  std::unique_lock<std::mutex> lock_first();
+  std::unique_lock<MapMutex> lock_first();
   /// Called with `lock` (on `mutex`) held, between units of long work (local mapping's fusion):
   /// when a lock_first() caller waits, releases the lock until that caller has taken it, then
   /// takes it back, which waits until the caller is done. Returns whether it released the lock:
   /// then anything read before may have changed. A no-op when nobody waits (deterministic mode).
-  bool yield_to_waiters(std::unique_lock<std::mutex>& lock);
+  bool yield_to_waiters(std::unique_lock<MapMutex>& lock);
 
   KeyFrame* add_keyframe(const Frame& frame);
   MapPoint* add_point(const Eigen::Vector3d& position, KeyFrame* reference, std::uint64_t frame_id);
