@@ -46,6 +46,8 @@ def run_row(json_path):
             row["mapping ms (mean)"] = statistics.mean(float(r["total_ms"]) for r in rows)
             row["link ms (median)"] = statistics.median(float(r["process_ms"]) for r in rows)
             row["triangulation ms (median)"] = statistics.median(float(r["triangulation_ms"]) for r in rows)
+            if "lock_wait_ms" in rows[0]:  # trees from 22c6110 on
+                row["mapping lock wait ms (mean)"] = statistics.mean(float(r["lock_wait_ms"]) for r in rows)
     return row
 
 

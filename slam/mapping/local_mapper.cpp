@@ -189,45 +189,42 @@ void LocalMapper::process(KeyFrame* keyframe) {
     step = Clock::now();
     paused_at_step = paused_ns_;
   };
-  // Starts a step without a pause point (under a hold of the lock that the step before took).
-  const auto next_step = [&] {
-    step = Clock::now();
-    paused_at_step = paused_ns_;
-  };
   const auto work_ns = [&] { return elapsed_ns(step) - (paused_ns_ - paused_at_step); };
 
-  // Linking, the recent points' culling and triangulation's set-up under one hold of the lock:
-  // as fast as possible tracking keeps the lock for most of the time (its whole frame), so each
-  // acquisition may wait for a frame; these steps are short and take no pause between them.
-  // Keyframes already waiting stay waiting (only this thread takes them).
-  const bool keyframes_wait = queued_keyframes() > 0;
   begin_step();
-  std::unique_lock lock(map_.mutex);
-  if (!keyframe->bad) {
-    const std::vector<MapPoint*> created = mapping::link_keyframe_points(map_, lock, keyframe, pyramid_, pool);
-    recent_points_.insert(recent_points_.end(), created.begin(), created.end());
+  {
+    std::unique_lock lock(map_.mutex);
+    if (!keyframe->bad) {
+      const std::vector<MapPoint*> created = mapping::link_keyframe_points(map_, lock, keyframe, pyramid_, pool);
+      recent_points_.insert(recent_points_.end(), created.begin(), created.end());
+    }
   }
   times.process_ns = work_ns();
-  next_step();
-  points_culled_ += static_cast<std::uint64_t>(mapping::cull_recent_points(recent_points_, keyframe->id));
+
+  begin_step();
+  {
+    std::lock_guard lock(map_.mutex);
+    points_culled_ += static_cast<std::uint64_t>(mapping::cull_recent_points(recent_points_, keyframe->id));
+  }
   times.cull_points_ns = work_ns();
 
-  next_step();
+  begin_step();
   points_triangulated_ += static_cast<std::uint64_t>(mapping::triangulate_new_points(
-      map_, lock, keyframe, settings_, pyramid_, recent_points_,
+      map_, keyframe, settings_, pyramid_, recent_points_,
       [this] {
         pause_point();
         return queued_keyframes() > 0;
       },
-      keyframes_wait, pool));
+      queued_keyframes() > 0, pool));
   times.triangulate_ns = work_ns();
 
   if (queued_keyframes() == 0) {
     begin_step();
-    lock.lock();
-    points_fused_ +=
-        static_cast<std::uint64_t>(mapping::fuse_with_neighbours(map_, lock, keyframe, settings_, pyramid_, pool));
-    lock.unlock();
+    {
+      std::unique_lock lock(map_.mutex);
+      points_fused_ +=
+          static_cast<std::uint64_t>(mapping::fuse_with_neighbours(map_, lock, keyframe, settings_, pyramid_, pool));
+    }
     times.fuse_ns = work_ns();
   }
 
@@ -237,12 +234,16 @@ void LocalMapper::process(KeyFrame* keyframe) {
   const bool due = every > 0 && keyframes_without_ba_ + 1 >= every;
   if (queued_keyframes() == 0 || due) {
     begin_step();
-    lock.lock();  // one hold for the check, the window's collection; then the write-back's for culling
-    if (map_.num_keyframes() > 2) {
+    bool enough_keyframes = false;
+    {
+      std::lock_guard lock(map_.mutex);
+      enough_keyframes = map_.num_keyframes() > 2;
+    }
+    if (enough_keyframes) {
       // Realtime, right after the keyframe before had its own: a few steps continue that one's work.
       const int steps = realtime_ && keyframes_without_ba_ == 0 ? settings_.realtime_bundle_adjustment_steps : 0;
       times.bundle_adjustment_iterations =
-          mapping::local_bundle_adjustment(map_, lock, keyframe, settings_, pyramid_,
+          mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_,
                                            due ? &stop_requested_ : &abort_ba_, [this] { pause_point(); }, pool,
                                            realtime_ ? settings_.realtime_bundle_adjustment_tolerance
                                                      : SlamSettings::kDeterministicBundleAdjustmentTolerance,
@@ -252,12 +253,14 @@ void LocalMapper::process(KeyFrame* keyframe) {
     }
     times.bundle_adjustment_ns = work_ns();
 
-    next_step();
-    if (!keyframe->bad) {
-      keyframes_culled_ +=
-          static_cast<std::uint64_t>(mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
+    begin_step();
+    {
+      std::lock_guard lock(map_.mutex);
+      if (!keyframe->bad) {
+        keyframes_culled_ += static_cast<std::uint64_t>(
+            mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
+      }
     }
-    lock.unlock();
     times.cull_keyframes_ns = work_ns();
   }
   keyframes_without_ba_ = times.bundle_adjustment_ran ? 0 : keyframes_without_ba_ + 1;

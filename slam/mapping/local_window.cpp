@@ -118,14 +118,18 @@ BaProblem collect_bundle_adjustment(const std::set<KeyFrame*, ById>& local, cons
 }
 
 LocalBundleAdjustmentOutcome local_bundle_adjustment(
-    Map& map, std::unique_lock<MapMutex>& lock, KeyFrame* keyframe, const SlamSettings& settings,
-    const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag, const std::function<void()>& between_iterations,
+    Map& map, KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid,
+    const std::atomic<bool>* stop_flag, const std::function<void()>& between_iterations,
     cpu::ThreadPool* pool, double function_tolerance, int steps) {
-  if (keyframe->bad) return {};
-  const BaProblem problem = collect_local_window(keyframe, pyramid);
-  const std::uint64_t generation = map.correction_generation;
+  BaProblem problem;
+  std::uint64_t generation = 0;
+  {
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad) return {};
+    problem = collect_local_window(keyframe, pyramid);
+    generation = map.correction_generation;
+  }
   if (problem.points.empty() || problem.observations.empty()) return {};
-  lock.unlock();
 
   optim::LocalBundleAdjustmentOptions options;
   options.stop_flag = stop_flag;
@@ -143,7 +147,7 @@ LocalBundleAdjustmentOutcome local_bundle_adjustment(
   const optim::LocalBundleAdjustmentResult result = optim::local_bundle_adjustment(
       settings.camera, problem.ba_keyframes, problem.positions, problem.observations, options);
 
-  lock.lock();
+  std::lock_guard lock(map.mutex);
   // A loop correction moved the map meanwhile: this window's result is relative to the old map.
   LocalBundleAdjustmentOutcome outcome;
   outcome.iterations = result.iterations;

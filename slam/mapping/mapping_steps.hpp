@@ -49,17 +49,16 @@ std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<MapMutex>
 /// number culled.
 int cull_recent_points(std::vector<MapPoint*>& recent, std::uint64_t current_keyframe_id);
 
-/// Step 3 (`lock` holds Map::mutex on entry; released before the searches, not held on return,
-/// and taken again per neighbour): creates points from matches between the keyframe's unmatched
+/// Step 3 (locks the map itself): creates points from matches between the keyframe's unmatched
 /// features and those of its best covisible keyframes; appends them to `recent`. `should_stop` is
 /// asked before every neighbour but the first (more keyframes waiting); `first_neighbour_only`
-/// says it already holds (keyframes wait), so only the first neighbour's search is made ahead.
-/// With a `pool` of more than one thread, the epipolar searches of the neighbours run first, in
-/// parallel; the points are the same. Returns the count created.
-int triangulate_new_points(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame* keyframe,
-                           const SlamSettings& settings, const ScalePyramid& pyramid,
-                           std::vector<MapPoint*>& recent, const std::function<bool()>& should_stop,
-                           bool first_neighbour_only, cpu::ThreadPool* pool = nullptr);
+/// says it already holds (keyframes wait). With a `pool` of more than one thread, the epipolar
+/// searches of the neighbours run first, in parallel (only the first's when
+/// `first_neighbour_only`); the points are the same. Returns the count created.
+int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
+                           const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
+                           const std::function<bool()>& should_stop, bool first_neighbour_only = false,
+                           cpu::ThreadPool* pool = nullptr);
 
 /// Step 4 (`lock` holds Map::mutex): ORB-SLAM2's SearchInNeighbors. Between target keyframes it
 /// hands the lock to a waiting tracker (Map::yield_to_waiters), as ORB-SLAM2's per-object locks
@@ -78,8 +77,8 @@ int fuse_points_into(KeyFrame* keyframe, const std::vector<MapPoint*>& points, c
                      const ScalePyramid& pyramid, double radius_factor = 3.0, int* added = nullptr,
                      cpu::ThreadPool* pool = nullptr);
 
-/// Step 5 (`lock` holds Map::mutex on entry and on return, released while the solver runs): local
-/// bundle adjustment around `keyframe`; keyframe 0 is never moved. With a `pool` of more than one thread the solver's loops run on it (the same result).
+/// Step 5 (locks the map itself): local bundle adjustment around `keyframe`; keyframe 0 is never
+/// moved. With a `pool` of more than one thread the solver's loops run on it (the same result).
 /// `function_tolerance`: LocalBundleAdjustmentOptions::function_tolerance. `steps` > 0: one stage of
 /// at most that many iterations with the robust loss, then the outlier test (no second stage; see
 /// SlamSettings::realtime_bundle_adjustment_steps); 0: ORB-SLAM2's two stages.
@@ -88,8 +87,8 @@ struct LocalBundleAdjustmentOutcome {
   int iterations = 0;  ///< Levenberg-Marquardt iterations of both stages
 };
 LocalBundleAdjustmentOutcome local_bundle_adjustment(
-    Map& map, std::unique_lock<MapMutex>& lock, KeyFrame* keyframe, const SlamSettings& settings,
-    const ScalePyramid& pyramid, const std::atomic<bool>* stop_flag, const std::function<void()>& between_iterations = {},
+    Map& map, KeyFrame* keyframe, const SlamSettings& settings, const ScalePyramid& pyramid,
+    const std::atomic<bool>* stop_flag, const std::function<void()>& between_iterations = {},
     cpu::ThreadPool* pool = nullptr,
     double function_tolerance = SlamSettings::kDeterministicBundleAdjustmentTolerance, int steps = 0);
 

@@ -305,69 +305,72 @@ struct SearchedAhead {
   std::vector<std::uint8_t> searched;            // per feature of keyframe 1: in `best`
 };
 
-/// The pairs' inputs read under the lock: keyframe 1's pose and free features, and per neighbour
-/// (`usable`: not bad) its pose and free features.
-struct AheadInputs {
+SearchedAhead search_ahead(Map& map, KeyFrame* keyframe, const std::vector<KeyFrame*>& neighbours,
+                           const StereoCamera& camera, const ScalePyramid& pyramid, cpu::ThreadPool& pool) {
+  const std::size_t count = neighbours.size();
+  SearchedAhead ahead;
+  ahead.pairs.resize(count);
+  ahead.best.resize(count);
   SE3 T_1w;
   std::vector<int> free1;
-  std::vector<SE3> T_2w;
-  std::vector<std::vector<int>> free2;
-  std::vector<std::uint8_t> usable;
-};
-
-/// Caller holds the lock and has checked that `keyframe` is good.
-AheadInputs read_ahead_inputs(const KeyFrame& keyframe, const std::vector<KeyFrame*>& neighbours) {
-  const std::size_t count = neighbours.size();
-  AheadInputs in{keyframe.T_cw, free_features(keyframe), std::vector<SE3>(count),
-                 std::vector<std::vector<int>>(count), std::vector<std::uint8_t>(count, 0)};
-  for (std::size_t n = 0; n < count; ++n) {
-    if (neighbours[n]->bad) continue;
-    in.T_2w[n] = neighbours[n]->T_cw;
-    in.free2[n] = free_features(*neighbours[n]);
-    in.usable[n] = 1;
+  std::vector<SE3> T_2w(count);
+  std::vector<std::vector<int>> free2(count);
+  std::vector<std::uint8_t> usable(count, 0);
+  {
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad) return ahead;
+    T_1w = keyframe->T_cw;
+    free1 = free_features(*keyframe);
+    for (std::size_t n = 0; n < count; ++n) {
+      if (neighbours[n]->bad) continue;
+      T_2w[n] = neighbours[n]->T_cw;
+      free2[n] = free_features(*neighbours[n]);
+      usable[n] = 1;
+    }
   }
-  return in;
-}
-
-/// Runs without the lock: features are immutable.
-SearchedAhead search_ahead(AheadInputs in, const FrameFeatures& f1, const std::vector<KeyFrame*>& neighbours,
-                           const StereoCamera& camera, const ScalePyramid& pyramid, cpu::ThreadPool& pool) {
-  const std::size_t count = in.usable.size();
-  SearchedAhead ahead;
-  ahead.pairs.resize(neighbours.size());
-  ahead.best.resize(neighbours.size());
-  const Eigen::Vector3d center1 = in.T_1w.inverse().translation();
+  const FrameFeatures& f1 = *keyframe->features;
+  const Eigen::Vector3d center1 = T_1w.inverse().translation();
   pool.parallel_for(0, static_cast<std::int64_t>(count), [&](std::int64_t i) {
     const auto n = static_cast<std::size_t>(i);
-    if (in.usable[n] == 0 || (in.T_2w[n].inverse().translation() - center1).norm() < camera.baseline_m) return;
-    ahead.pairs[n].emplace(in.T_1w, in.T_2w[n], std::move(in.free2[n]), *neighbours[n]->features, camera, pyramid);
+    if (usable[n] == 0 || (T_2w[n].inverse().translation() - center1).norm() < camera.baseline_m) return;
+    ahead.pairs[n].emplace(T_1w, T_2w[n], std::move(free2[n]), *neighbours[n]->features, camera, pyramid);
     ahead.best[n].resize(f1.size());
   });
-  const auto per_pair = static_cast<std::int64_t>(in.free1.size());
+  const auto per_pair = static_cast<std::int64_t>(free1.size());
   pool.parallel_for(0, static_cast<std::int64_t>(count) * per_pair, [&](std::int64_t i) {
     const auto n = static_cast<std::size_t>(i / per_pair);
     if (!ahead.pairs[n]) return;
-    const int i1 = in.free1[static_cast<std::size_t>(i % per_pair)];
+    const int i1 = free1[static_cast<std::size_t>(i % per_pair)];
     ahead.best[n][static_cast<std::size_t>(i1)] = ahead.pairs[n]->search(f1, i1);
   });
   ahead.searched.assign(f1.size(), 0);
-  for (const int i1 : in.free1) ahead.searched[static_cast<std::size_t>(i1)] = 1;
+  for (const int i1 : free1) ahead.searched[static_cast<std::size_t>(i1)] = 1;
   return ahead;
 }
 
 }  // namespace
 
-int triangulate_new_points(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame* keyframe,
-                           const SlamSettings& settings, const ScalePyramid& pyramid,
-                           std::vector<MapPoint*>& recent, const std::function<bool()>& should_stop,
-                           bool first_neighbour_only, cpu::ThreadPool* pool) {
+int triangulate_new_points(Map& map, KeyFrame* keyframe, const SlamSettings& settings,
+                           const ScalePyramid& pyramid, std::vector<MapPoint*>& recent,
+                           const std::function<bool()>& should_stop, bool first_neighbour_only,
+                           cpu::ThreadPool* pool) {
   const StereoCamera& camera = settings.camera;
-  if (keyframe->bad) {
-    lock.unlock();
-    return 0;
+  std::vector<KeyFrame*> neighbours;
+  {
+    std::lock_guard lock(map.mutex);
+    if (keyframe->bad) return 0;
+    neighbours = keyframe->best_covisibles(kNeighbours);
   }
-  const std::vector<KeyFrame*> neighbours = keyframe->best_covisibles(kNeighbours);
   const FrameFeatures& f1 = *keyframe->features;
+  SearchedAhead ahead;
+  if (pool != nullptr && pool->size() > 1) {
+    // Keyframes already waiting stay waiting (only the mapping thread takes them): should_stop()
+    // then ends the pass after the first neighbour, and a search made ahead for the others would
+    // be thrown away.
+    const std::size_t count = first_neighbour_only ? std::min<std::size_t>(neighbours.size(), 1) : neighbours.size();
+    const std::vector<KeyFrame*> searched(neighbours.begin(), neighbours.begin() + static_cast<std::ptrdiff_t>(count));
+    ahead = search_ahead(map, keyframe, searched, camera, pyramid, *pool);
+  }
   // What the pass reads of one pair under the lock: the poses and the unmatched features.
   struct Snapshot {
     std::uint64_t generation = 0;
@@ -384,29 +387,12 @@ int triangulate_new_points(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame*
     snapshot.free2 = free_features(*other);
     return true;
   };
-  // Under the hold the caller took (after linking and culling the keyframe's points): the first
-  // neighbour's snapshot, and with a pool what the searches made ahead read; each acquisition may
-  // wait for a whole tracked frame (tracking keeps the lock for its frame).
+  // The next neighbour's snapshot is taken under the lock that creates this one's points: one
+  // acquisition per neighbour instead of two (tracking keeps the lock for its whole frame, so each
+  // acquisition may wait for one). `should_stop` is asked before that lock, not after it.
   enum class Next { none, taken, bad };
   Next next = Next::none;
   Snapshot snapshot;
-  // Keyframes already waiting stay waiting (only this thread takes them): should_stop() ends the
-  // pass after the first neighbour, so only that one's search is made ahead.
-  const std::size_t searched_ahead = first_neighbour_only ? std::min<std::size_t>(1, neighbours.size())
-                                                          : neighbours.size();
-  const bool pooled = pool != nullptr && pool->size() > 1;
-  std::optional<AheadInputs> ahead_inputs;
-  if (pooled) {
-    ahead_inputs.emplace(read_ahead_inputs(
-        *keyframe, std::vector<KeyFrame*>(neighbours.begin(),
-                                          neighbours.begin() + static_cast<std::ptrdiff_t>(searched_ahead))));
-  }
-  if (!neighbours.empty()) next = take_snapshot(neighbours.front(), snapshot) ? Next::taken : Next::bad;
-  lock.unlock();
-  SearchedAhead ahead;
-  if (ahead_inputs) ahead = search_ahead(std::move(*ahead_inputs), f1, neighbours, camera, pyramid, *pool);
-  // The next neighbour's snapshot is taken under the lock that creates this one's points: one
-  // acquisition per neighbour instead of two. `should_stop` is asked before that lock, not after it.
   int created = 0;
   for (std::size_t n = 0; n < neighbours.size(); ++n) {
     KeyFrame* other = neighbours[n];
@@ -416,7 +402,7 @@ int triangulate_new_points(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame*
     }
     if (next == Next::none) {
       if (n > 0 && should_stop && should_stop()) break;
-      std::lock_guard hold(map.mutex);
+      std::lock_guard lock(map.mutex);
       if (!take_snapshot(other, snapshot)) continue;
     }
     next = Next::none;
@@ -451,7 +437,7 @@ int triangulate_new_points(Map& map, std::unique_lock<MapMutex>& lock, KeyFrame*
     }
 
     const bool last = n + 1 == neighbours.size() || (should_stop && should_stop());
-    std::lock_guard hold(map.mutex);
+    std::lock_guard lock(map.mutex);
     // A loop correction moved the keyframes meanwhile: these points are in the old map's frame.
     if (!keyframe->bad && !other->bad && map.correction_generation == generation) {
       for (const NewPoint& candidate : new_points) {
