@@ -295,7 +295,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
   // Per-stage timing.
   std::vector<std::int64_t> frontend_ns, stereo_ns, tracking_ns, frame_ns, local_map_ns, triangulate_ns, fuse_ns, ba_ns;
   std::vector<std::int64_t> map_wait_ns, unlocked_ns, relock_wait_ns, motion_ns, track_local_ns, keyframe_ns;
-  std::vector<std::int64_t> mapping_wait_ns;
+  std::vector<std::int64_t> mapping_wait_ns, mapping_lock_wait_ns;
   const bool stereo_separated = system.frontend_in_flight() == 1;  // pipelined frames are not profiled
   for (const slam::FrameTimes& t : system.frame_times()) {
     frontend_ns.push_back(t.frontend_ns);
@@ -317,6 +317,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
     triangulate_ns.push_back(t.triangulate_ns);
     fuse_ns.push_back(t.fuse_ns);
     ba_ns.push_back(t.bundle_adjustment_ns);
+    mapping_lock_wait_ns.push_back(t.lock_wait_ns);
   }
   // In the order printed and written.
   const std::vector<std::pair<std::string, Quantiles>> stages = {
@@ -326,7 +327,8 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
       {"without map lock", quantiles(unlocked_ns)}, {"map lock retake", quantiles(relock_wait_ns)},
       {"keyframe", quantiles(keyframe_ns)},         {"local map", quantiles(local_map_ns)},
       {"triangulation", quantiles(triangulate_ns)}, {"fusion", quantiles(fuse_ns)},
-      {"BA", quantiles(ba_ns)},                     {"input wait", quantiles(reader.input_wait_ns())},
+      {"BA", quantiles(ba_ns)},                     {"mapping lock wait", quantiles(mapping_lock_wait_ns)},
+      {"input wait", quantiles(reader.input_wait_ns())},
       {"mapping wait", quantiles(mapping_wait_ns)},
       {"frame", quantiles(frame_ns)}};
   summary.median_frame_ms = stages.back().second.median_ms;
@@ -357,6 +359,7 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
               " + track local map + keyframe, the track steps including the time without the map lock"
               " and waiting to retake it;"
               " frame = frontend + tracking%s;\n local map (which includes triangulation and fusion) and BA are per keyframe;"
+              " mapping lock wait is the part of both that local mapping spent waiting to take the map's lock;"
               " input wait = the frames' loop waiting for the next pair from the reader, outside frame)\n",
               stereo_separated ? "" : " and is the host's share: the device works on the next pair while one is tracked",
               options.mode == slam::RunMode::deterministic ? " + local mapping of new keyframes"
