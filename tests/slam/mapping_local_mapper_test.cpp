@@ -259,26 +259,37 @@ TEST(Mapping, ParallelMappingGivesTheSameMapAsOneThread) {
   EXPECT_EQ(spread(mapper_three), static_cast<int>(mapper_three.times().size()));
 }
 
+/// Nine keyframes 0.15 m apart: the first still in view of the last.
+SyntheticScene nine_keyframe_scene() {
+  SceneSpec spec;
+  spec.keyframes = 9;
+  spec.step_m = 0.15;
+  return SyntheticScene{spec};
+}
+
+/// The scene's keyframes 0-2 mapped one at a time (the map then has enough keyframes for local
+/// BA), then 3-8 queued together and mapped.
+void map_three_then_queue_six(const SyntheticScene& scene, Map& map, LocalMapper& mapper) {
+  TrackingStandIn tracking(scene, map, mapper);
+  for (std::size_t k = 0; k < 3; ++k) {
+    tracking.insert(k, scene.true_T_cw[k]);
+    mapper.process_all();
+  }
+  for (std::size_t k = 3; k < 9; ++k) tracking.insert(k, scene.true_T_cw[k]);
+  mapper.process_all();
+}
+
 // Keyframes queued together: local BA runs only where none waits (the last) by default, and on
 // at least every second one with bundle_adjustment_every = 2.
 TEST(Mapping, BundleAdjustmentEveryNthKeyframeRunsWhileKeyframesWait) {
-  SceneSpec spec;
-  spec.keyframes = 9;
-  spec.step_m = 0.15;  // the first keyframe still in view of the last
-  const SyntheticScene scene{spec};
+  const SyntheticScene scene = nine_keyframe_scene();
   ASSERT_EQ(scene.true_T_cw.size(), 9u);
   for (const int every : {0, 2}) {
     SlamSettings settings = test_settings();
     settings.bundle_adjustment_every = every;
     Map map;
     LocalMapper mapper(settings, map);
-    TrackingStandIn tracking(scene, map, mapper);
-    for (std::size_t k = 0; k < 3; ++k) {  // one at a time: the map then has enough keyframes for BA
-      tracking.insert(k, scene.true_T_cw[k]);
-      mapper.process_all();
-    }
-    for (std::size_t k = 3; k < 9; ++k) tracking.insert(k, scene.true_T_cw[k]);
-    mapper.process_all();
+    map_three_then_queue_six(scene, map, mapper);
     std::vector<int> ran;
     for (std::size_t k = 3; k < 9; ++k) {
       if (mapper.times()[k].bundle_adjustment_ran) ran.push_back(static_cast<int>(k));
@@ -292,10 +303,7 @@ TEST(Mapping, BundleAdjustmentEveryNthKeyframeRunsWhileKeyframesWait) {
 // Keyframes queued together: while others wait, triangulation stops after the first neighbour,
 // and with a pool only that neighbour's search is made ahead; the map is one thread's.
 TEST(Mapping, KeyframesQueuedTogetherGiveTheSameMapOnAPoolAsOnOneThread) {
-  SceneSpec spec;
-  spec.keyframes = 9;
-  spec.step_m = 0.15;
-  const SyntheticScene scene{spec};
+  const SyntheticScene scene = nine_keyframe_scene();
   std::vector<MapSnapshot> maps;
   std::vector<std::uint64_t> triangulated;
   for (const int threads : {1, 3}) {
@@ -303,13 +311,7 @@ TEST(Mapping, KeyframesQueuedTogetherGiveTheSameMapOnAPoolAsOnOneThread) {
     settings.mapping_threads = threads;
     Map map;
     LocalMapper mapper(settings, map);
-    TrackingStandIn tracking(scene, map, mapper);
-    for (std::size_t k = 0; k < 3; ++k) {
-      tracking.insert(k, scene.true_T_cw[k]);
-      mapper.process_all();
-    }
-    for (std::size_t k = 3; k < 9; ++k) tracking.insert(k, scene.true_T_cw[k]);
-    mapper.process_all();
+    map_three_then_queue_six(scene, map, mapper);
     ASSERT_EQ(mapper.times().size(), 9u);
     EXPECT_EQ(mapper.times()[3].queued, 5u);
     EXPECT_EQ(mapper.times()[3].spread, threads > 1);
