@@ -265,14 +265,14 @@ MapPoint* Map::restore_point(std::uint64_t id, const Eigen::Vector3d& position, 
 
 void Map::add_observation(MapPoint* point, KeyFrame* keyframe, int feature) {
   point->observations[keyframe] = feature;
-  keyframe->points[static_cast<std::size_t>(feature)] = point;
+  keyframe->set_point(static_cast<std::size_t>(feature), point);
 }
 
 void Map::erase_observation(MapPoint* point, KeyFrame* keyframe) {
   const auto it = point->observations.find(keyframe);
   if (it == point->observations.end()) return;
   if (keyframe->points[static_cast<std::size_t>(it->second)] == point) {
-    keyframe->points[static_cast<std::size_t>(it->second)] = nullptr;
+    keyframe->set_point(static_cast<std::size_t>(it->second), nullptr);
   }
   point->observations.erase(it);
   if (point->reference == keyframe) {
@@ -285,7 +285,7 @@ void Map::set_bad(MapPoint* point) {
   point->bad = true;
   for (const auto& [keyframe, feature] : point->observations) {
     if (keyframe->points[static_cast<std::size_t>(feature)] == point) {
-      keyframe->points[static_cast<std::size_t>(feature)] = nullptr;
+      keyframe->set_point(static_cast<std::size_t>(feature), nullptr);
     }
   }
   point->observations.clear();
@@ -297,7 +297,7 @@ void Map::replace(MapPoint* point, MapPoint* into) {
     if (into->observations.find(keyframe) == into->observations.end()) {
       add_observation(into, keyframe, feature);
     } else if (keyframe->points[static_cast<std::size_t>(feature)] == point) {
-      keyframe->points[static_cast<std::size_t>(feature)] = nullptr;
+      keyframe->set_point(static_cast<std::size_t>(feature), nullptr);
     }
   }
   into->found += point->found;

@@ -143,7 +143,7 @@ void restore(const MapFileData& data, Map& map) {
     for (std::size_t f = 0; f < r.point_ids.size(); ++f) {
       if (r.point_ids[f] == kNoId) continue;
       const PointRecord* p = find_record(data.points, r.point_ids[f]);
-      k->points[f] = points[static_cast<std::size_t>(p - data.points.data())];
+      k->set_point(f, points[static_cast<std::size_t>(p - data.points.data())]);
     }
     k->parent = r.parent == kNoId ? nullptr : keyframe(r.parent);
     for (std::uint64_t id : r.children) k->children[keyframe(id)] = 0;

@@ -35,7 +35,7 @@ std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<MapMutex>
       // Tracking may hand over a point that fusion merged while the keyframe waited in the queue.
       while (point->bad && point->replaced_by != nullptr) point = point->replaced_by;
       if (point->bad) {
-        keyframe->points[i] = nullptr;
+        keyframe->set_point(i, nullptr);
         continue;
       }
       // Tracking sets the keyframe's matched points with or without Map::add_observation (its new
@@ -44,7 +44,7 @@ std::vector<MapPoint*> link_keyframe_points(Map& map, std::unique_lock<MapMutex>
       if (it == point->observations.end()) {
         Map::add_observation(point, keyframe, static_cast<int>(i));
       } else if (it->second != static_cast<int>(i)) {
-        keyframe->points[i] = nullptr;  // the point is already seen by another feature of this keyframe
+        keyframe->set_point(i, nullptr);  // the point is already seen by another feature of this keyframe
         continue;
       }
       if (point->reference == nullptr) point->reference = keyframe;

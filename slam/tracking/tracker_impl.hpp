@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "frame_search.hpp"
+#include "local_points.hpp"
 #include "porta/slam/elapsed.hpp"
 #include "porta/slam/projection_matcher.hpp"
 #include "porta/slam/tracker.hpp"
@@ -87,6 +88,7 @@ struct Tracker::Impl {
   SE3 T_last_ref = SE3::Identity();  // last frame relative to its reference keyframe
   int local_map_inliers = 0;
   std::vector<KeyFrame*> local_keyframes;
+  tracking::LocalPoints local_points;  // of local_keyframes
   // search_local_points' buffers, kept across frames.
   std::vector<tracking::ProjectedPoint> projected;
   std::vector<ProjectionQuery> queries;
@@ -98,7 +100,7 @@ struct Tracker::Impl {
   bool release_map_lock = false;
   bool map_moved = false;  // a loop correction moved the map while this frame released the lock
   std::function<void()> unlocked_hook;
-  std::uint64_t local_points_mark = 0, frame_points_mark = 0;  // MapPoint::tracking_*_mark of the latest build and frame
+  std::uint64_t frame_points_mark = 0;  // MapPoint::tracking_frame_mark of the latest frame
   std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
   std::string lost_reason;
 };

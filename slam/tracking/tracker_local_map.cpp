@@ -78,24 +78,21 @@ int Tracker::Impl::search_local_points(Frame& frame) {
     ++point->visible;
     point->tracking_frame_mark = mark;
   }
-  // The local points: each point of the local keyframes once, in the order first met (a mark per
-  // build instead of a hash set), projected as it is met (one pass over tens of thousands of
-  // keyframe features; a list first and the projection after touched every point twice).
-  // `count` says whether a projected point counts as seen (not on a second pass of the frame).
+  // The local points (each point of the local keyframes once, in the order first met; mostly kept
+  // from the frame before, tracking::LocalPoints) projected into the frame. `count` says whether a
+  // projected point counts as seen (not on a second pass of the frame).
   const auto project_local_points = [&](bool count) {
-    const std::uint64_t local_mark = ++local_points_mark;
+    local_points.update(local_keyframes);
     const Eigen::Vector3d center = frame.center();
     projected.clear();
-    for (const KeyFrame* keyframe : local_keyframes) {
-      for (MapPoint* point : keyframe->points) {
-        if (point == nullptr || point->bad || point->tracking_local_mark == local_mark) continue;
-        point->tracking_local_mark = local_mark;
-        if (point->tracking_frame_mark == mark) continue;  // matched already
-        tracking::ProjectedPoint p;
-        if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
-        if (count) ++point->visible;
-        projected.push_back(p);
-      }
+    for (MapPoint* point : local_points.points()) {
+      // bad: culled or replaced since it was listed, while only a keyframe not yet linked held it
+      // (its point is not among the point's observations, so the cull did not edit it).
+      if (point->bad || point->tracking_frame_mark == mark) continue;  // or matched already
+      tracking::ProjectedPoint p;
+      if (!tracking::project_in_frustum(*point, frame, center, geometry, p)) continue;
+      if (count) ++point->visible;
+      projected.push_back(p);
     }
     if (!projected.empty()) {
       tracking::build_local_queries(projected, kLocalMapWindow, geometry, queries, query_descriptors);
@@ -190,7 +187,7 @@ KeyFrame* Tracker::Impl::create_keyframe(Frame& frame) {
   // The frame's matches go to the keyframe; local mapping links their observations (and
   // updates their descriptors and normals) when it processes the keyframe.
   for (std::size_t i = 0; i < frame.points.size(); ++i) {
-    if (frame.points[i] != nullptr && !frame.points[i]->bad) keyframe->points[i] = frame.points[i];
+    if (frame.points[i] != nullptr && !frame.points[i]->bad) keyframe->set_point(i, frame.points[i]);
   }
   // New points from the closest stereo features: all closer than close_depth_m, at least 100.
   const FrameFeatures& f = *frame.features;

@@ -99,8 +99,13 @@ class KeyFrame {
   const std::shared_ptr<const FrameFeatures> features;
   const FeatureGrid grid;
   SE3 T_cw;
-  std::vector<MapPoint*> points;  ///< per feature, nullptr = none
+  /// Per feature, nullptr = none. Read freely; once the keyframe is in the map, write it only
+  /// through set_point, which counts the edits that tracking's local-point list follows.
+  std::vector<MapPoint*> points;
   bool bad = false;
+  /// Writes to `points` through set_point so far (tracking::LocalPoints keeps what it listed of
+  /// an unedited keyframe from one frame to the next).
+  std::uint64_t points_edits = 0;
 
   // Covisibility graph: weight = number of map points seen by both keyframes.
   IdMap<KeyFrame, int> connections;
@@ -121,6 +126,11 @@ class KeyFrame {
   std::size_t collect_index = 0;
 
   Eigen::Vector3d center() const { return T_cw.inverse().translation(); }
+  /// points[feature] = point, counted in points_edits.
+  void set_point(std::size_t feature, MapPoint* point) {
+    points[feature] = point;
+    ++points_edits;
+  }
   /// Map points with at least `min_observations` observations (0: all good points).
   int tracked_points(int min_observations) const;
   /// Recomputes `connections` from the map points and updates the other side of each edge.
