@@ -10,14 +10,16 @@
 
 namespace porta::slam::tracking {
 
-/// The local keyframes hold ~10 entries for each distinct point (~41 000 for ~4 100 on KITTI), and
-/// consecutive frames share most keyframes. So the list is kept from one update to the next for
-/// the leading keyframes that are the same, in the same places, with no edit to their points since
-/// (KeyFrame::points_edits); only the keyframes after them are scanned again. The list is a scan
-/// of every keyframe's, but for points turned bad since (the caller skips them): an edited
-/// keyframe, and every keyframe after it, is scanned again, and a point culled or replaced leaves
-/// (set_point) every keyframe among its observations. Only a keyframe that tracking made and
-/// local mapping has not linked yet may hold a point without being among its observations.
+/// The local keyframes hold ~10 entries for each distinct point (~54 000 for ~6 600 on KITTI), and
+/// consecutive frames share most keyframes. So each keyframe's share of the list (the points it
+/// met first) is kept from one update to the next while every keyframe before it is the one of
+/// before in its place and gave its share of before: then an unedited keyframe (KeyFrame::
+/// points_edits) gives its share again without a scan. An edited keyframe is scanned; when its
+/// share comes out as before (an edit among points met earlier, or a culled point's slot cleared),
+/// the keyframes after it may still keep theirs. The list is a scan of every keyframe's, but for
+/// points turned bad since (the caller skips them): a point culled or replaced leaves (set_point)
+/// every keyframe among its observations; only a keyframe that tracking made and local mapping has
+/// not linked yet may hold a point without being among them.
 class LocalPoints {
  public:
   /// Lists the points of `keyframes` (good keyframes, each once).
@@ -26,7 +28,7 @@ class LocalPoints {
   void clear();
 
   const std::vector<MapPoint*>& points() const { return points_; }
-  /// Leading points the last update kept from the one before, and keyframe entries it scanned.
+  /// Points the last update kept from the one before without a scan, and keyframe entries it scanned.
   std::size_t kept() const { return kept_; }
   std::size_t scanned() const { return scanned_; }
 
@@ -35,6 +37,8 @@ class LocalPoints {
   std::vector<std::uint64_t> edits_;   // their points_edits then
   std::vector<std::size_t> starts_;    // where each one's first-met points begin in points_
   std::vector<MapPoint*> points_;
+  std::vector<MapPoint*> next_;          // the list being made (swapped with points_)
+  std::vector<std::size_t> next_starts_;
   std::uint64_t mark_ = 0;             // MapPoint::tracking_local_mark of the last update
   std::size_t kept_ = 0, scanned_ = 0;
 };

@@ -49,7 +49,7 @@ std::vector<MapPoint*> good(const std::vector<MapPoint*>& points) {
   return out;
 }
 
-TEST(TrackingLocalPoints, KeepsTheUneditedLeadingKeyframesPointsAndScansTheRest) {
+TEST(TrackingLocalPoints, KeepsEachKeyframesShareWhileTheKeyframesBeforeGaveTheirsAgain) {
   Map map;
   std::vector<KeyFrame*> keyframes;
   for (int k = 0; k < 3; ++k) keyframes.push_back(map.add_keyframe(make_frame(k, 10)));
@@ -79,6 +79,21 @@ TEST(TrackingLocalPoints, KeepsTheUneditedLeadingKeyframesPointsAndScansTheRest)
   EXPECT_EQ(local.points(), scan_all(keyframes));
   EXPECT_EQ(local.points()[9], fresh);  // keyframe 1's points 3..8, then feature 9's
 
+  // Keyframe 1 stops seeing point 3, which keyframe 0 met first: its share is as before, so
+  // keyframe 2 keeps its three points (9..11) without a scan.
+  keyframes[1]->set_point(0, nullptr);
+  local.update(keyframes);
+  EXPECT_EQ(local.kept(), 9u);
+  EXPECT_EQ(local.scanned(), 10u);
+  EXPECT_EQ(local.points(), scan_all(keyframes));
+  // Point 4 culled: keyframes 0 and 1 lose it (edited, scanned), their shares of good points are as
+  // before, keyframe 2 keeps its share.
+  Map::set_bad(points[4]);
+  local.update(keyframes);
+  EXPECT_EQ(local.kept(), 3u);
+  EXPECT_EQ(local.scanned(), 20u);
+  EXPECT_EQ(local.points(), scan_all(keyframes));
+
   // A point that only an unlinked slot of keyframe 2 holds (tracking's new keyframe, before local
   // mapping links it), culled: no listed keyframe is edited, so the list keeps it, bad.
   KeyFrame* elsewhere = map.add_keyframe(make_frame(3, 10));
@@ -94,10 +109,10 @@ TEST(TrackingLocalPoints, KeepsTheUneditedLeadingKeyframesPointsAndScansTheRest)
   EXPECT_EQ(local.points().back(), unlinked);
   EXPECT_EQ(good(local.points()), scan_all(keyframes));
 
-  // Another list: only the common leading keyframe is kept.
+  // Another list: only the common leading keyframe's share is kept (0..3 and 5; 4 was culled).
   const std::vector<KeyFrame*> swapped{keyframes[0], keyframes[2], keyframes[1]};
   local.update(swapped);
-  EXPECT_EQ(local.kept(), 6u);
+  EXPECT_EQ(local.kept(), 5u);
   EXPECT_EQ(local.points(), scan_all(swapped));
 }
 
