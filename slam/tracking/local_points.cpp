@@ -1,8 +1,6 @@
 // Tracking's local points kept across frames; see local_points.hpp.
 #include "local_points.hpp"
 
-#include <algorithm>
-
 namespace porta::slam::tracking {
 
 void LocalPoints::clear() {

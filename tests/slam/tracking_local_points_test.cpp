@@ -77,7 +77,7 @@ TEST(TrackingLocalPoints, KeepsEachKeyframesShareWhileTheKeyframesBeforeGaveThei
   EXPECT_EQ(local.kept(), 6u);
   EXPECT_EQ(local.scanned(), 20u);
   EXPECT_EQ(local.points(), scan_all(keyframes));
-  EXPECT_EQ(local.points()[9], fresh);  // keyframe 1's points 3..8, then feature 9's
+  EXPECT_EQ(local.points()[9], fresh);  // keyframe 0's points 0..5, keyframe 1's 6..8, then its feature 9's
 
   // Keyframe 1 stops seeing point 3, which keyframe 0 met first: its share is as before, so
   // keyframe 2 keeps its three points (9..11) without a scan.
