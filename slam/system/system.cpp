@@ -126,10 +126,11 @@ TrackingResult System::track_next() {
   FrameRecord record;
   record.time_s = pending.time_s;
   if (result.state == TrackingState::ok && result.reference_keyframe != nullptr) {
-    std::lock_guard lock(map_.mutex);
+    // Relative to the keyframe's pose as tracking saw it, not as it is now: local mapping may have
+    // moved it since tracking let the lock go, and the frame then follows that correction.
     record.tracked = true;
     record.reference = result.reference_keyframe;
-    record.T_c_ref = result.T_cw * result.reference_keyframe->T_cw.inverse();
+    record.T_c_ref = result.T_c_ref;
   }
   records_.push_back(record);
 

@@ -316,6 +316,7 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
     result.state = TrackingState::ok;
     result.T_cw = frame.T_cw;
     result.reference_keyframe = t.reference_keyframe;
+    result.T_c_ref = t.T_last_ref;
     result.track_motion_ns = elapsed_ns(start);
     last_frame_ = std::move(frame);
     return result;
@@ -416,6 +417,7 @@ TrackingResult Tracker::track(std::uint64_t frame_id, double time_s,
   result.state = TrackingState::ok;
   result.T_cw = frame.T_cw;
   result.reference_keyframe = reference;
+  result.T_c_ref = t.T_last_ref;
   last_frame_ = std::move(frame);
   return result;
 }

@@ -98,7 +98,7 @@ struct Tracker::Impl {
   std::unique_lock<MapMutex>* map_lock = nullptr;
   TrackingResult* timed = nullptr;
   bool release_map_lock = false;
-  bool map_moved = false;  // a loop correction moved the map while this frame released the lock
+  bool map_moved = false;  // a loop correction or a local BA moved the map while this frame released the lock
   std::function<void()> unlocked_hook;
   std::uint64_t frame_points_mark = 0;  // MapPoint::tracking_frame_mark of the latest frame
   std::uint64_t keyframe_vote_mark = 0, keyframe_local_mark = 0;  // KeyFrame::tracking_*_mark of the latest frame
@@ -109,9 +109,10 @@ struct Tracker::Impl {
 
 // Runs `work`, which touches no map object, with the map's lock released when allowed, and takes
 // the lock back before local mapping's next long step (Map::lock_first). Returns false when a loop
-// correction moved the map meanwhile: what `work` computed from copies made before is stale, and
-// the frame's pose has been moved with its reference keyframe (as update_last_frame moves the last
-// frame), for the caller to compute the step again.
+// correction moved the map meanwhile, or a local bundle adjustment moved the frame's reference
+// keyframe: what `work` computed from copies made before is stale, and the frame's pose has been
+// moved with its reference keyframe (as update_last_frame moves the last frame), for the caller to
+// compute the step again.
 template <class Work>
 bool Tracker::Impl::without_map_lock(Frame& frame, Work&& work) {
   if (!release_map_lock || map_lock == nullptr || timed == nullptr) {
@@ -129,7 +130,10 @@ bool Tracker::Impl::without_map_lock(Frame& frame, Work&& work) {
   const auto wait_start = std::chrono::steady_clock::now();
   *map_lock = map.lock_first();
   timed->relock_wait_ns += elapsed_ns(wait_start);
-  if (map.correction_generation == generation) return true;
+  // A loop correction, or local mapping's BA written back with the frame's keyframe in its window:
+  // the copies were of the map before, and the step is computed again from where it is now.
+  const bool anchor_moved = anchor != nullptr && anchor->T_cw.matrix() != anchor_T_cw.matrix();
+  if (map.correction_generation == generation && !anchor_moved) return true;
   map_moved = true;
   if (anchor != nullptr) frame.T_cw = frame.T_cw * anchor_T_cw.inverse() * anchor->T_cw;
   return false;

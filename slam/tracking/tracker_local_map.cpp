@@ -105,7 +105,7 @@ int Tracker::Impl::search_local_points(Frame& frame) {
     matcher.set_frame(kernel_keypoints(*frame.features, scales_q16), frame.features->descriptors);
     results = matcher.match(queries, query_descriptors);
   };
-  if (!without_map_lock(frame, match)) {  // a loop correction moved the points: project them again
+  if (!without_map_lock(frame, match)) {  // the map moved meanwhile: project the points again
     project_local_points(false);
     if (projected.empty()) return 0;
     match();

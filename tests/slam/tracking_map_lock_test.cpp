@@ -134,6 +134,57 @@ TEST(TrackingMapLock, AMapMovedWhileTheLockIsReleasedMovesTheFrameWithIt) {
   }
 }
 
+// Local mapping's BA written back while the lock is released: it moves the frame's reference
+// keyframe (here every keyframe and point by the same rigid S, without the loop closer's
+// correction count). The frame's pose, computed from copies of the map before, is computed again
+// from the map as it is, in each of the three windows of frame 15; frames after it are tracked in
+// the moved map, and every frame's pose relative to its keyframe (TrackingResult::T_c_ref) puts it
+// where its keyframe now is.
+TEST(TrackingMapLock, AKeyframeMovedByLocalMappingWhileTheLockIsReleasedIsFollowed) {
+  constexpr int kMoved = 15;
+  SE3 S = SE3::Identity();
+  S.linear() = Eigen::AngleAxisd(0.5 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  S.translation() = Eigen::Vector3d(0.2, 0.0, 0.1);
+  for (int moved_in : {1, 2, 3}) {
+    const test::World w(straight_path(), 29, 1200, kFrames);
+    test::Pipeline p(w, w.settings);
+    p.tracker.release_map_lock_while_computing(true);
+    int frame = 0, window = 0;
+    p.tracker.set_unlocked_hook([&] {
+      if (frame != kMoved || ++window != moved_in) return;
+      std::lock_guard lock(p.map.mutex);
+      for (KeyFrame* keyframe : p.map.keyframes()) keyframe->T_cw = keyframe->T_cw * S.inverse();
+      for (MapPoint* point : p.map.points()) {
+        point->position = S * point->position;
+        point->normal = S.linear() * point->normal;
+      }
+    });
+    for (frame = 0; frame < kFrames; ++frame) {
+      window = 0;
+      const TrackingResult& r = p.feed(static_cast<std::uint64_t>(frame), test::observe(w, frame, 29));
+      ASSERT_EQ(r.state, TrackingState::ok)
+          << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
+      const SE3 moved = frame >= kMoved ? S.inverse() : SE3::Identity();
+      EXPECT_LT(translation_error_m(r.T_cw, w.T_cw[static_cast<std::size_t>(frame)] * moved), 0.03)
+          << "window " << moved_in << ", frame " << frame;
+    }
+    // The trajectory System writes: every frame with its keyframe's pose now, in the moved map.
+    std::lock_guard lock(p.map.mutex);
+    for (int k = 0; k < kFrames; ++k) {
+      const TrackingResult& r = p.results[static_cast<std::size_t>(k)];
+      const KeyFrame* reference = r.reference_keyframe;
+      SE3 T_c_ref = r.T_c_ref;
+      while (reference->bad && reference->parent != nullptr) {
+        T_c_ref = T_c_ref * reference->T_c_parent;
+        reference = reference->parent;
+      }
+      EXPECT_LT(translation_error_m(T_c_ref * reference->T_cw, w.T_cw[static_cast<std::size_t>(k)] * S.inverse()),
+                0.03)
+          << "window " << moved_in << ", frame " << k;
+    }
+  }
+}
+
 // The realtime arrangement: local mapping on its own thread, taking the lock whenever tracking
 // lets it go (run under TSan in CI: tracking's work without the lock touches no map object).
 TEST(TrackingMapLock, TracksBesideTheMappingThreadWithinCentimetres) {

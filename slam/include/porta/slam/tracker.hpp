@@ -42,6 +42,10 @@ struct TrackingResult {
   TrackingState state = TrackingState::not_initialized;
   SE3 T_cw = SE3::Identity();        ///< valid when state == ok
   KeyFrame* reference_keyframe = nullptr;
+  /// T_cw relative to the reference keyframe's pose as tracking saw it (state == ok), taken under
+  /// the same hold of the map's lock as the pose: once tracking lets the lock go, local mapping
+  /// may move the keyframe (a local BA written back), and the frame was not tracked against that.
+  SE3 T_c_ref = SE3::Identity();
   bool keyframe_inserted = false;
   bool used_motion_model = false;    ///< false: reference-keyframe fallback (or initialisation)
   bool relocalised = false;          ///< the pose came from relocalisation (the frame or the one before was lost, or EPnP against the reference keyframe beat a weak motion-model prediction)
