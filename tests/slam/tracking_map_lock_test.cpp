@@ -99,38 +99,48 @@ TEST(TrackingMapLock, PointsCulledWhileTheLockIsReleasedAreNotKept) {
   EXPECT_GT(culled.size(), 100u);
 }
 
+/// Tracks kFrames frames with the lock released; in window `moved_in` (1-3) of frame kMoved every
+/// keyframe and point moves by the rigid S, as a loop correction (`correction` true: the map's
+/// correction count goes up) or a local BA written back (it does not) would move them. Checks that
+/// frame kMoved and those after it are tracked in the moved map, at T_cw S^-1.
+constexpr int kMoved = 15;
+
+void track_with_the_map_moved(test::Pipeline& p, const test::World& w, std::uint64_t seed, const SE3& S,
+                              int moved_in, bool correction) {
+  p.tracker.release_map_lock_while_computing(true);
+  int frame = 0, window = 0;
+  p.tracker.set_unlocked_hook([&] {
+    if (frame != kMoved || ++window != moved_in) return;
+    std::lock_guard lock(p.map.mutex);
+    for (KeyFrame* keyframe : p.map.keyframes()) keyframe->T_cw = keyframe->T_cw * S.inverse();
+    for (MapPoint* point : p.map.points()) {
+      point->position = S * point->position;
+      point->normal = S.linear() * point->normal;
+    }
+    if (correction) ++p.map.correction_generation;
+  });
+  for (frame = 0; frame < kFrames; ++frame) {
+    window = 0;
+    const TrackingResult& r = p.feed(static_cast<std::uint64_t>(frame), test::observe(w, frame, seed));
+    ASSERT_EQ(r.state, TrackingState::ok) << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
+    const SE3 moved = frame >= kMoved ? S.inverse() : SE3::Identity();
+    const SE3 truth = w.T_cw[static_cast<std::size_t>(frame)] * moved;
+    EXPECT_LT(translation_error_m(r.T_cw, truth), 0.03) << "window " << moved_in << ", frame " << frame;
+    EXPECT_FALSE(r.relocalised) << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
+  }
+  p.tracker.set_unlocked_hook({});
+}
+
 // A loop correction (here a rigid motion S of every keyframe and point) in each of the three
 // windows of frame 15: that frame and the ones after it are tracked in the moved map, at T_cw S^-1.
 TEST(TrackingMapLock, AMapMovedWhileTheLockIsReleasedMovesTheFrameWithIt) {
-  constexpr int kMoved = 15;
   SE3 S = SE3::Identity();
   S.linear() = Eigen::AngleAxisd(2.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
   S.translation() = Eigen::Vector3d(1.0, 0.0, 0.5);
   for (int moved_in : {1, 2, 3}) {
     const test::World w(straight_path(), 25, 1200, kFrames);
     test::Pipeline p(w, w.settings);
-    p.tracker.release_map_lock_while_computing(true);
-    int frame = 0, window = 0;
-    p.tracker.set_unlocked_hook([&] {
-      if (frame != kMoved || ++window != moved_in) return;
-      std::lock_guard lock(p.map.mutex);
-      for (KeyFrame* keyframe : p.map.keyframes()) keyframe->T_cw = keyframe->T_cw * S.inverse();
-      for (MapPoint* point : p.map.points()) {
-        point->position = S * point->position;
-        point->normal = S.linear() * point->normal;
-      }
-      ++p.map.correction_generation;
-    });
-    for (frame = 0; frame < kFrames; ++frame) {
-      window = 0;
-      const TrackingResult& r = p.feed(static_cast<std::uint64_t>(frame), test::observe(w, frame, 25));
-      ASSERT_EQ(r.state, TrackingState::ok)
-          << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
-      const SE3 moved = frame >= kMoved ? S.inverse() : SE3::Identity();
-      const SE3 truth = w.T_cw[static_cast<std::size_t>(frame)] * moved;
-      EXPECT_LT(translation_error_m(r.T_cw, truth), 0.03) << "window " << moved_in << ", frame " << frame;
-      EXPECT_FALSE(r.relocalised) << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
-    }
+    track_with_the_map_moved(p, w, 25, S, moved_in, /*correction=*/true);
   }
 }
 
@@ -141,33 +151,13 @@ TEST(TrackingMapLock, AMapMovedWhileTheLockIsReleasedMovesTheFrameWithIt) {
 // the moved map, and every frame's pose relative to its keyframe (TrackingResult::T_c_ref) puts it
 // where its keyframe now is.
 TEST(TrackingMapLock, AKeyframeMovedByLocalMappingWhileTheLockIsReleasedIsFollowed) {
-  constexpr int kMoved = 15;
   SE3 S = SE3::Identity();
   S.linear() = Eigen::AngleAxisd(0.5 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
   S.translation() = Eigen::Vector3d(0.2, 0.0, 0.1);
   for (int moved_in : {1, 2, 3}) {
     const test::World w(straight_path(), 29, 1200, kFrames);
     test::Pipeline p(w, w.settings);
-    p.tracker.release_map_lock_while_computing(true);
-    int frame = 0, window = 0;
-    p.tracker.set_unlocked_hook([&] {
-      if (frame != kMoved || ++window != moved_in) return;
-      std::lock_guard lock(p.map.mutex);
-      for (KeyFrame* keyframe : p.map.keyframes()) keyframe->T_cw = keyframe->T_cw * S.inverse();
-      for (MapPoint* point : p.map.points()) {
-        point->position = S * point->position;
-        point->normal = S.linear() * point->normal;
-      }
-    });
-    for (frame = 0; frame < kFrames; ++frame) {
-      window = 0;
-      const TrackingResult& r = p.feed(static_cast<std::uint64_t>(frame), test::observe(w, frame, 29));
-      ASSERT_EQ(r.state, TrackingState::ok)
-          << "window " << moved_in << ", frame " << frame << ": " << r.lost_reason;
-      const SE3 moved = frame >= kMoved ? S.inverse() : SE3::Identity();
-      EXPECT_LT(translation_error_m(r.T_cw, w.T_cw[static_cast<std::size_t>(frame)] * moved), 0.03)
-          << "window " << moved_in << ", frame " << frame;
-    }
+    track_with_the_map_moved(p, w, 29, S, moved_in, /*correction=*/false);
     // The trajectory System writes: every frame with its keyframe's pose now, in the moved map.
     std::lock_guard lock(p.map.mutex);
     for (int k = 0; k < kFrames; ++k) {
