@@ -169,10 +169,6 @@ SlamRunSummary run_slam(const SlamRunOptions& options) {
                   settings.mapping_thread_nice, settings.loop_closing_thread_nice,
                   settings.keyframes_while_mapping ? "on" : "off");
     }
-    if (settings.bundle_adjustment_thread) {
-      std::printf("threads   local BA on a thread of its own (%d pool threads), beside mapping\n",
-                  settings.resolved_mapping_threads());
-    }
   }
   std::fflush(stdout);
 

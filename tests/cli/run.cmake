@@ -121,10 +121,6 @@ porta_cli_test(run_bad_queued_follow_ba EXIT 1 STDERR "--queued-follow-ba takes 
                ARGS run --dataset kitti x --queued-follow-ba yes)
 porta_cli_test(run_queued_follow_ba_without_value EXIT 1 STDERR "--queued-follow-ba"
                ARGS run --dataset kitti x --queued-follow-ba)
-porta_cli_test(run_bad_ba_thread EXIT 1 STDERR "--ba-thread takes on or off, got '1'"
-               ARGS run --dataset kitti x --ba-thread 1)
-porta_cli_test(run_ba_thread_without_value EXIT 1 STDERR "--ba-thread"
-               ARGS run --dataset kitti x --ba-thread)
 porta_cli_test(run_bad_tracking_map_lock EXIT 1
                STDERR "--tracking-map-lock takes frame or steps, got 'step'"
                ARGS run --dataset kitti x --tracking-map-lock step)

@@ -1,8 +1,7 @@
 # `portaslam run`'s per-frame and per-keyframe logs (docs/USER_GUIDE.md, "Where the time goes"):
 # frames.csv has a line per frame, mapping.csv a line per keyframe local mapping processed, in
 # keyframe order, every field of its columns, and local mapping's steps add up within its total;
-# tracking's time without the map's lock is there with --tracking-map-lock steps only; with
-# --ba-thread on the BA thread's windows are in the ba columns.
+# tracking's time without the map's lock is there with --tracking-map-lock steps only.
 # Run as a script by run.cmake: cmake -DPORTASLAM=... -DWORK=... -P slam_run_logs.cmake
 if(NOT CMAKE_SCRIPT_MODE_FILE)
   return()
@@ -114,23 +113,5 @@ if(steps_unlocked LESS 39)
   message(FATAL_ERROR
           "frames.csv with --tracking-map-lock steps: ${steps_unlocked} of 40 frames released the lock")
 endif()
-# --ba-thread on: local BA on its own thread, its windows in mapping.csv's ba columns.
-execute_process(COMMAND ${PORTASLAM} run --dataset kitti seq --ba-thread on --out ba --quiet
-                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err WORKING_DIRECTORY ${WORK})
-if(NOT rc EQUAL 0 OR NOT out MATCHES "local BA on a thread of its own")
-  message(FATAL_ERROR "run --ba-thread on: exit ${rc}:\n${out}${err}")
-endif()
-file(STRINGS ${WORK}/ba/mapping.csv ba_lines)
-list(POP_FRONT ba_lines)
-set(ba_windows 0)
-foreach(line IN LISTS ba_lines)
-  if(line MATCHES "^[0-9]+,[0-9]+,${ms},[01],${ms},${ms},${ms},${ms},1,${ms},[0-9]+,${ms},${ms},${ms}$")
-    math(EXPR ba_windows "${ba_windows} + 1")
-  endif()
-endforeach()
-if(ba_windows LESS 1)
-  message(FATAL_ERROR "mapping.csv with --ba-thread on: no keyframe's window adjusted:\n${ba_lines}")
-endif()
 message(STATUS "frames.csv 40 frames; mapping.csv ${processed} keyframes (the map keeps ${keyframes}); "
-               "${steps_unlocked} frames without the map's lock at times with --tracking-map-lock steps; "
-               "${ba_windows} windows adjusted by the BA thread")
+               "${steps_unlocked} frames without the map's lock at times with --tracking-map-lock steps")
