@@ -88,7 +88,6 @@ slam::SlamSettings make_settings(const SlamRunOptions& options, const slam::Ster
   settings.bundle_adjustment_every = options.ba_every;
   settings.keyframes_while_mapping = options.keyframes_while_mapping;
   settings.queued_keyframes_follow_ba = options.queued_follow_ba;
-  settings.bundle_adjustment_thread = options.ba_thread;
   settings.tracking_releases_map_lock = options.tracking_releases_map_lock;
   settings.realtime_bundle_adjustment_tolerance = options.ba_tolerance;
   settings.realtime_bundle_adjustment_steps = options.ba_steps;
@@ -511,9 +510,6 @@ std::string slam_run_options_usage() {
          "                      realtime: keyframes waiting for local mapping follow the\n"
          "                      correction of each local BA of two stages written back, with\n"
          "                      their new points (default on; off: they stay, as ORB-SLAM2)\n"
-         "  --ba-thread on|off  realtime: local BA on a thread of its own, on the newest keyframe\n"
-         "                      mapping processed, while mapping goes on with the next (default\n"
-         "                      off: between one keyframe's steps and the next's, as ORB-SLAM2)\n"
          "  --tracking-map-lock frame|steps\n"
          "                      realtime: tracking holds the map's lock for the whole frame\n"
          "                      (default frame, as ORB-SLAM2), or lets it go while it computes on\n"
@@ -577,10 +573,6 @@ bool parse_slam_run_option(const std::string& option, ArgumentCursor& cursor, Sl
     const std::string value = cursor.value(option);
     if (value != "on" && value != "off") throw CliError("--queued-follow-ba takes on or off, got '" + value + "'");
     options.queued_follow_ba = value == "on";
-  } else if (option == "--ba-thread") {
-    const std::string value = cursor.value(option);
-    if (value != "on" && value != "off") throw CliError("--ba-thread takes on or off, got '" + value + "'");
-    options.ba_thread = value == "on";
   } else if (option == "--tracking-map-lock") {
     const std::string value = cursor.value(option);
     if (value != "steps" && value != "frame") {

@@ -22,7 +22,6 @@ struct SlamRunOptions {
   int ba_every = 4;               ///< SlamSettings::bundle_adjustment_every
   bool keyframes_while_mapping = true;  ///< SlamSettings::keyframes_while_mapping
   bool queued_follow_ba = true;         ///< SlamSettings::queued_keyframes_follow_ba
-  bool ba_thread = false;               ///< SlamSettings::bundle_adjustment_thread
   bool tracking_releases_map_lock = false;  ///< SlamSettings::tracking_releases_map_lock
   double ba_tolerance = 1e-3;     ///< SlamSettings::realtime_bundle_adjustment_tolerance
   int ba_steps = 1;               ///< SlamSettings::realtime_bundle_adjustment_steps

@@ -8,10 +8,8 @@
 // deterministic mode the queue holds what the caller inserted, so that choice is reproducible too.
 #include "porta/slam/local_mapper.hpp"
 
-#include <algorithm>
 #include <chrono>
 #include <stdexcept>
-#include <utility>
 
 #if defined(__linux__)
 #include <pthread.h>
@@ -88,15 +86,7 @@ void LocalMapper::process_all() {
 void LocalMapper::start() {
   if (thread_.joinable()) return;
   stop_requested_ = false;
-  realtime_ = true;  // before the threads start, so they read it without a race
-  if (settings_.bundle_adjustment_thread) {
-    if (const int threads = settings_.resolved_mapping_threads(); threads > 1 && ba_pool_ == nullptr) {
-      ba_pool_ = std::make_unique<cpu::ThreadPool>(threads, "porta-ba-pool");
-    }
-    ba_stop_ = false;
-    ba_thread_on_ = true;
-    ba_thread_ = std::thread(&LocalMapper::ba_thread_main, this);  // before the mapping thread reads it
-  }
+  realtime_ = true;  // before the thread starts, so it reads it without a race
   thread_ = std::thread(&LocalMapper::thread_main, this);
 }
 
@@ -110,25 +100,6 @@ void LocalMapper::stop() {
   tracking_cv_.notify_all();
   dequeued_cv_.notify_all();
   thread_.join();
-  if (ba_thread_.joinable()) {
-    {
-      std::lock_guard lock(queue_mutex_);
-      ba_stop_ = true;
-    }
-    ba_cv_.notify_all();
-    ba_thread_.join();
-    // Each window's time on the keyframe it was the window of (times_ is in id order).
-    for (const BundleAdjustmentRun& run : ba_runs_) {
-      const auto it = std::lower_bound(times_.begin(), times_.end(), run.keyframe_id,
-                                       [](const MappingTimes& t, std::uint64_t id) { return t.keyframe_id < id; });
-      if (it == times_.end() || it->keyframe_id != run.keyframe_id) continue;
-      it->bundle_adjustment_ran = true;
-      it->bundle_adjustment_ns += run.ns;
-      it->bundle_adjustment_iterations += run.iterations;
-      it->cull_keyframes_ns += run.cull_keyframes_ns;
-    }
-  }
-  ba_thread_on_ = false;
   realtime_ = false;
 }
 
@@ -155,7 +126,8 @@ void LocalMapper::pause_point() {
   paused_ns_ += elapsed_ns(since);
 }
 
-void LocalMapper::lower_this_threads_priority() const {
+void LocalMapper::thread_main() {
+  cpu::name_this_thread("porta-mapping");
 #if defined(__linux__)
   // Tracking's latency comes first. SCHED_IDLE: the mapping thread runs only on a core nothing
   // else wants, and a waking tracking or frontend thread takes the core at once (a nice value
@@ -169,11 +141,6 @@ void LocalMapper::lower_this_threads_priority() const {
     detail::set_thread_nice(settings_.mapping_thread_nice);
   }
 #endif
-}
-
-void LocalMapper::thread_main() {
-  cpu::name_this_thread("porta-mapping");
-  lower_this_threads_priority();
   for (;;) {
     KeyFrame* keyframe = nullptr;
     {
@@ -190,70 +157,6 @@ void LocalMapper::thread_main() {
     std::lock_guard lock(queue_mutex_);
     idle_ = true;
   }
-}
-
-void LocalMapper::ba_thread_main() {
-  cpu::name_this_thread("porta-local-ba");
-  lower_this_threads_priority();
-  std::uint64_t last_sequence = 0;  // of the keyframe whose window was adjusted last (0: none)
-  for (;;) {
-    KeyFrame* keyframe = nullptr;
-    std::uint64_t sequence = 0;
-    {
-      std::unique_lock lock(queue_mutex_);
-      ba_cv_.wait(lock, [this] { return ba_next_ != nullptr || ba_stop_; });
-      if (ba_next_ == nullptr) break;  // the mapping thread has joined and all is adjusted
-      keyframe = std::exchange(ba_next_, nullptr);
-      sequence = ba_next_sequence_;
-      ba_busy_ = true;
-    }
-    adjust_and_cull(keyframe, sequence, last_sequence);
-    {
-      std::lock_guard lock(queue_mutex_);
-      ba_busy_ = false;
-    }
-    ba_idle_cv_.notify_all();
-  }
-}
-
-void LocalMapper::adjust_and_cull(KeyFrame* keyframe, std::uint64_t sequence, std::uint64_t& last_sequence) {
-  BundleAdjustmentRun run;
-  run.keyframe_id = keyframe->id;
-  const auto start = Clock::now();
-  const std::int64_t lock_wait_at_start = MapMutex::thread_wait_ns();
-  bool enough_keyframes = false;
-  {
-    std::lock_guard lock(map_.mutex);
-    enough_keyframes = map_.num_keyframes() > 2;
-  }
-  if (enough_keyframes) {
-    // Right after the keyframe before's window, a few steps continue its work (as in process()).
-    run.continued = last_sequence != 0 && sequence == last_sequence + 1;
-    const int steps = run.continued ? settings_.realtime_bundle_adjustment_steps : 0;
-    run.iterations = mapping::local_bundle_adjustment(map_, keyframe, settings_, pyramid_, &ba_never_stops_, {},
-                                                      ba_pool_.get(), settings_.realtime_bundle_adjustment_tolerance,
-                                                      steps)
-                         .iterations;
-    last_sequence = sequence;
-  }
-  run.ns = elapsed_ns(start);
-  // Then ORB-SLAM2's keyframe culling around it (in the mapping thread without the BA thread).
-  const auto cull_start = Clock::now();
-  {
-    std::lock_guard lock(map_.mutex);
-    if (!keyframe->bad) {
-      keyframes_culled_ +=
-          static_cast<std::uint64_t>(mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
-    }
-  }
-  run.cull_keyframes_ns = elapsed_ns(cull_start);
-  run.lock_wait_ns = MapMutex::thread_wait_ns() - lock_wait_at_start;
-  if (enough_keyframes) ba_runs_.push_back(run);
-}
-
-bool LocalMapper::bundle_adjustment_pending() const {
-  std::lock_guard lock(queue_mutex_);
-  return ba_busy_ || ba_next_ != nullptr;
 }
 
 bool LocalMapper::spread_over_pool() const {
@@ -326,29 +229,10 @@ void LocalMapper::process(KeyFrame* keyframe) {
   }
 
   // Local BA when no keyframe waits (ORB-SLAM2), or when it is due (bundle_adjustment_every): then
-  // to the end, whatever arrives meanwhile. With the BA thread, it takes this keyframe's window
-  // when it is free (the newest handed over), and culls keyframes after it.
-  const auto cull_keyframes = [&] {
-    begin_step();
-    {
-      std::lock_guard lock(map_.mutex);
-      if (!keyframe->bad) {
-        keyframes_culled_ +=
-            static_cast<std::uint64_t>(mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
-      }
-    }
-    times.cull_keyframes_ns = work_ns();
-  };
+  // to the end, whatever arrives meanwhile.
   const int every = settings_.bundle_adjustment_every;
   const bool due = every > 0 && keyframes_without_ba_ + 1 >= every;
-  if (ba_thread_on_) {
-    {
-      std::lock_guard lock(queue_mutex_);
-      ba_next_ = keyframe;
-      ba_next_sequence_ = ++processed_sequence_;
-    }
-    ba_cv_.notify_one();
-  } else if (queued_keyframes() == 0 || due) {
+  if (queued_keyframes() == 0 || due) {
     begin_step();
     bool enough_keyframes = false;
     {
@@ -369,7 +253,15 @@ void LocalMapper::process(KeyFrame* keyframe) {
     }
     times.bundle_adjustment_ns = work_ns();
 
-    cull_keyframes();
+    begin_step();
+    {
+      std::lock_guard lock(map_.mutex);
+      if (!keyframe->bad) {
+        keyframes_culled_ += static_cast<std::uint64_t>(
+            mapping::cull_redundant_keyframes(keyframe, settings_.close_depth_m()));
+      }
+    }
+    times.cull_keyframes_ns = work_ns();
   }
   keyframes_without_ba_ = times.bundle_adjustment_ran ? 0 : keyframes_without_ba_ + 1;
   times.total_ns = elapsed_ns(start) - (paused_ns_ - paused_at_start);

@@ -49,17 +49,6 @@ struct MappingTimes {
   int bundle_adjustment_iterations = 0;   ///< its Levenberg-Marquardt iterations, both stages
 };
 
-/// One local bundle adjustment of the BA thread (SlamSettings::bundle_adjustment_thread): the
-/// window of `keyframe_id`, the newest keyframe mapping had processed when it started.
-struct BundleAdjustmentRun {
-  std::uint64_t keyframe_id = 0;
-  std::int64_t ns = 0;            ///< wall time, with the waits for Map::mutex
-  std::int64_t lock_wait_ns = 0;  ///< of ns, waiting to take Map::mutex
-  std::int64_t cull_keyframes_ns = 0;  ///< keyframe culling after it
-  int iterations = 0;
-  bool continued = false;  ///< a window right after the keyframe before's: realtime_bundle_adjustment_steps
-};
-
 class LocalMapper {
  public:
   LocalMapper(const SlamSettings& settings, Map& map);
@@ -80,8 +69,6 @@ class LocalMapper {
   /// Blocks while `limit` or more keyframes are queued (realtime mode; returns at once when the
   /// thread is not running or is stopping).
   void wait_while_queued(std::size_t limit);
-  /// With the BA thread: a keyframe handed to it waits or is being adjusted.
-  bool bundle_adjustment_pending() const;
   /// Asks a running bundle adjustment to stop at its next iteration.
   void interrupt_bundle_adjustment();
 
@@ -89,7 +76,7 @@ class LocalMapper {
   void process_all();
   /// Realtime mode: a thread that processes keyframes as they arrive.
   void start();
-  /// Processes what is queued, then joins the thread (and the BA thread after its last window).
+  /// Processes what is queued, then joins the thread.
   void stop();
 
   /// Realtime mode: the tracking thread calls these around each frame. While a frame is being
@@ -101,12 +88,8 @@ class LocalMapper {
   void tracking_started();
   void tracking_finished();
 
-  /// One entry per processed keyframe (read after stop() or from the deterministic pipeline). With
-  /// the BA thread, a keyframe whose window it adjusted has bundle_adjustment_ran and its time and
-  /// iterations (filled in by stop()).
+  /// One entry per processed keyframe (read after stop() or from the deterministic pipeline).
   const std::vector<MappingTimes>& times() const { return times_; }
-  /// The BA thread's adjustments, in order (read after stop(); empty without the thread).
-  const std::vector<BundleAdjustmentRun>& bundle_adjustment_runs() const { return ba_runs_; }
   /// Points created by triangulation / merged by fusion / culled as recent points, and keyframes
   /// culled, over the run (read like times()).
   std::uint64_t points_triangulated() const { return points_triangulated_; }
@@ -117,12 +100,6 @@ class LocalMapper {
  private:
   void process(KeyFrame* keyframe);
   void thread_main();
-  /// The BA thread: adjusts the window of the newest keyframe handed over (ba_next_) until stop().
-  void ba_thread_main();
-  /// The BA thread's work on one keyframe handed over: its window adjusted, then keyframe culling.
-  void adjust_and_cull(KeyFrame* keyframe, std::uint64_t sequence, std::uint64_t& last_sequence);
-  /// Gives the mapping and BA threads their scheduling class (mapping_thread_idle_priority).
-  void lower_this_threads_priority() const;
   /// In the mapping thread, without Map::mutex held: waits while a frame is being tracked (see
   /// tracking_started()).
   void pause_point();
@@ -148,20 +125,6 @@ class LocalMapper {
   std::int64_t paused_ns_ = 0;  ///< time pause_point() waited (mapping thread only)
   std::thread thread_;
   bool realtime_ = false;  ///< set before the thread starts, cleared after it joins
-  // The BA thread (realtime mode with settings.bundle_adjustment_thread). Under queue_mutex_: the
-  // newest processed keyframe not yet adjusted (null: none) and its place in processing order.
-  std::thread ba_thread_;
-  std::condition_variable ba_cv_;
-  std::condition_variable ba_idle_cv_;  ///< the BA thread finished a keyframe
-  bool ba_busy_ = false;
-  KeyFrame* ba_next_ = nullptr;
-  std::uint64_t ba_next_sequence_ = 0;
-  bool ba_stop_ = false;  ///< the mapping thread has joined: adjust what is handed over, then end
-  bool ba_thread_on_ = false;  ///< set before the threads start, cleared after they join
-  std::atomic<bool> ba_never_stops_{false};  ///< the BA thread's windows run to their end
-  std::uint64_t processed_sequence_ = 0;  ///< keyframes processed (mapping thread only)
-  std::unique_ptr<cpu::ThreadPool> ba_pool_;
-  std::vector<BundleAdjustmentRun> ba_runs_;  ///< BA thread only until it joins
   std::unique_ptr<cpu::ThreadPool> pool_;  ///< settings.resolved_mapping_threads() > 1 only
   // Under queue_mutex_: steady-clock time of the last insert_keyframe(), the interval before it,
   // and the wall time the last processed keyframe took.

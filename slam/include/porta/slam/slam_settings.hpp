@@ -84,14 +84,6 @@ struct SlamSettings {
   /// frames/s; on an H100 host 370 instead of 398 frames/s at the same ATE (medians,
   /// docs/BENCHMARKS.md). The deterministic mode always holds it: nothing runs beside tracking.
   bool tracking_releases_map_lock = false;
-  /// Realtime mode: local bundle adjustment runs on a thread of its own, beside the mapping thread,
-  /// on the newest keyframe that mapping has processed whenever it is free (LocalMapper), instead
-  /// of between one keyframe's fusion and the next keyframe. Mapping then goes on with the next
-  /// keyframe while a window is adjusted, and no adjustment is skipped for keyframes that wait: it
-  /// takes the newest. A window that follows the keyframe before's runs
-  /// realtime_bundle_adjustment_steps, one after keyframes went without runs ORB-SLAM2's two stages.
-  /// The deterministic mode adjusts in the mapping thread whatever this says.
-  bool bundle_adjustment_thread = false;
   /// Realtime mode: the mapping thread pauses while a frame is tracked unless keyframes wait
   /// (LocalMapper::tracking_started()).
   bool mapping_yields_to_tracking = true;
