@@ -99,11 +99,12 @@ TEST(TrackingMapLock, PointsCulledWhileTheLockIsReleasedAreNotKept) {
   EXPECT_GT(culled.size(), 100u);
 }
 
+constexpr int kMoved = 15;
+
 /// Tracks kFrames frames with the lock released; in window `moved_in` (1-3) of frame kMoved every
 /// keyframe and point moves by the rigid S, as a loop correction (`correction` true: the map's
 /// correction count goes up) or a local BA written back (it does not) would move them. Checks that
 /// frame kMoved and those after it are tracked in the moved map, at T_cw S^-1.
-constexpr int kMoved = 15;
 
 void track_with_the_map_moved(test::Pipeline& p, const test::World& w, std::uint64_t seed, const SE3& S,
                               int moved_in, bool correction) {
