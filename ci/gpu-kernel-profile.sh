@@ -34,9 +34,7 @@
 # PFA's own launches rather than the cull's "pfa-apart" (PORTA_VULKAN_PFA_IN_CULL=off
 # PORTA_OPENCL_PFA_IN_CULL=off: frames-*-pfa-apart.txt, kernels-*-pfa-apart.txt); on vulkan, the
 # cull's launch not finishing detection "cull-unfinished" (PORTA_VULKAN_CULL_FINISHES=off:
-# frames-*-cull-unfinished.txt, kernels-*-cull-unfinished.txt); on vulkan, the pyramid in chains of
-# 2 or 3 levels per dispatch "chain-2", "chain-3" (PORTA_VULKAN_PYRAMID_CHAIN=2 or 3:
-# frames-*-chain-2.txt, kernels-*-chain-2.txt, ...); and "repeat": the default frame
+# frames-*-cull-unfinished.txt, kernels-*-cull-unfinished.txt); and "repeat": the default frame
 # times once more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
 # pass through.
 set -uo pipefail
@@ -55,8 +53,8 @@ case "$frames" in '' | *[!0-9]* | 0) say "PORTA_PROFILE_FRAMES must be a whole n
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
-  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | pfa-apart | cull-unfinished | chain-2 | chain-3 | repeat | none) ;;
-  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 pfa-apart cull-unfinished chain-2 chain-3 repeat none"
+  case "$v" in one-queue | fused-pyramid | unfused-detect | transfer-queue | unheld | device-queues | hold-2 | pfa-apart | cull-unfinished | repeat | none) ;;
+  *) say "PORTA_PROFILE_VARIANTS names '$v'; known: one-queue fused-pyramid unfused-detect transfer-queue unheld device-queues hold-2 pfa-apart cull-unfinished repeat none"
      exit 1 ;;
   esac
 done
@@ -128,11 +126,6 @@ for cell in "${cells[@]}"; do
   if [[ ",$all," == *",vulkan,"* ]] && variant cull-unfinished; then
     variant_run cull-unfinished vulkan PORTA_VULKAN_CULL_FINISHES=off
   fi
-  for v in chain-2 chain-3; do
-    if [[ ",$all," == *",vulkan,"* ]] && variant "$v"; then
-      variant_run "$v" vulkan PORTA_VULKAN_PYRAMID_CHAIN="${v#chain-}"
-    fi
-  done
   # vulkan's queue settings, frame times only: "variant environment...".
   for setting in "transfer-queue PORTA_VULKAN_TRANSFER_QUEUE=on" \
     "unheld PORTA_VULKAN_TRANSFER_QUEUE=on PORTA_VULKAN_HOLD_BATCHES=off" \
@@ -186,16 +179,13 @@ fi
     echo "detection in four kernels (PORTA_VULKAN_FUSED_DETECT=off PORTA_OPENCL_FUSED_DETECT=off):"
     grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-unfused-detect.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-unfused-detect.txt" 2>/dev/null
-    for v in pfa-apart cull-unfinished chain-2 chain-3 transfer-queue unheld device-queues hold-2 repeat; do
+    for v in pfa-apart cull-unfinished transfer-queue unheld device-queues hold-2 repeat; do
       [ -f "$out_dir/frames-$name-$v.txt" ] || continue
       echo "$v:"
       grep -E '^(cpu|cuda|vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
     done
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-pfa-apart.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-cull-unfinished.txt" 2>/dev/null
-    for v in chain-2 chain-3; do
-      sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-$v.txt" 2>/dev/null | grep -E "^vulkan,|pyramid|^  all"
-    done
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then
