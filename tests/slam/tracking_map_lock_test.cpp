@@ -105,7 +105,6 @@ constexpr int kMoved = 15;
 /// keyframe and point moves by the rigid S, as a loop correction (`correction` true: the map's
 /// correction count goes up) or a local BA written back (it does not) would move them. Checks that
 /// frame kMoved and those after it are tracked in the moved map, at T_cw S^-1.
-
 void track_with_the_map_moved(test::Pipeline& p, const test::World& w, std::uint64_t seed, const SE3& S,
                               int moved_in, bool correction) {
   p.tracker.release_map_lock_while_computing(true);
