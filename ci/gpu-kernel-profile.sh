@@ -36,7 +36,9 @@
 # cull's launch not finishing detection "cull-unfinished" (PORTA_VULKAN_CULL_FINISHES=off:
 # frames-*-cull-unfinished.txt, kernels-*-cull-unfinished.txt); and "repeat": the default frame
 # times once more, last, to see the run's drift). The backends' own variables (PORTA_VULKAN_DEVICE_QUEUES, ...)
-# pass through.
+# pass through. PORTA_PROFILE_SETTINGS adds runs of any settings, on vulkan and opencl, frame times
+# and per-kernel device time: "NAME NAME=VALUE ...; NAME NAME=VALUE ..." (e.g. "px4
+# PORTA_VULKAN_CULL_PIXELS=4"), in frames-*-NAME.txt and kernels-*-NAME.txt, after the variants.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 
@@ -138,6 +140,15 @@ for cell in "${cells[@]}"; do
     env $settings "$binary" bench --backend vulkan "${common[@]}" "${bench_args[@]}" \
       --json "$out_dir/frames-$name-$v.json" >"$out_dir/frames-$name-$v.txt" 2>>"$out_dir/bench.log" || status=1
   done
+  if [ -n "$timed" ] && [ -n "${PORTA_PROFILE_SETTINGS:-}" ]; then
+    IFS=';' read -r -a extra <<<"$PORTA_PROFILE_SETTINGS"
+    for setting in "${extra[@]}"; do
+      read -r v settings <<<"$setting"
+      [ -n "$v" ] || continue
+      # shellcheck disable=SC2086  # the settings are words of NAME=VALUE
+      variant_run "$v" "$timed" $settings
+    done
+  fi
   if variant repeat; then
     say "cell $name: frame times on $all again"
     "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name-repeat.json" \
@@ -186,6 +197,16 @@ fi
     done
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-pfa-apart.txt" 2>/dev/null
     sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-cull-unfinished.txt" 2>/dev/null
+    if [ -n "${PORTA_PROFILE_SETTINGS:-}" ]; then
+      IFS=';' read -r -a extra <<<"$PORTA_PROFILE_SETTINGS"
+      for setting in "${extra[@]}"; do
+        read -r v settings <<<"$setting"
+        [ -f "$out_dir/frames-$name-$v.txt" ] || continue
+        echo "$v ($settings):"
+        grep -E '^(vulkan|opencl)' "$out_dir/frames-$name-$v.txt"
+        sed -n '/^Per-kernel device time/,$p' "$out_dir/kernels-$name-$v.txt" 2>/dev/null
+      done
+    fi
     echo '```'
   done
   if [ -f "$out_dir/cl-enqueue.txt" ]; then

@@ -30,6 +30,7 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
       "a time in microseconds")));
   pfa_in_cull_ = checks::env_switch("vulkan", "PORTA_VULKAN_PFA_IN_CULL", true);
   fused_detect_finish_ = checks::env_switch("vulkan", "PORTA_VULKAN_CULL_FINISHES", true);
+  cull_pixels_ = checks::env_int("vulkan", "PORTA_VULKAN_CULL_PIXELS", 0, 1024, 0, "a pixel count");
   runtime_->set_all_barriers(checks::env_switch("vulkan", "PORTA_VULKAN_ALL_BARRIERS", false));
   if (const char* env = std::getenv("PORTA_VULKAN_HOLD_BATCHES"); env != nullptr && *env != '\0') {
     const std::string value = env;

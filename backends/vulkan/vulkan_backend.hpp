@@ -150,6 +150,10 @@ class VulkanBackend final : public Backend {
   /// (fast_cull_finish.comp), rather than two ($PORTA_VULKAN_CULL_FINISHES=on, the default, or
   /// off). The same bytes either way.
   bool fused_detect_finish() const { return fused_detect_finish_; }
+  /// fast_cull.comp's pixels per invocation (checks::plan_cell_groups): 0, the default, for its
+  /// rule by the grid's size; $PORTA_VULKAN_CULL_PIXELS=N (1 to 1024) for N in every grid.
+  /// The same bytes either way.
+  int cull_pixels() const { return cull_pixels_; }
 
  private:
   std::shared_ptr<Runtime> runtime_;  // shared with the buffers it made, which may outlive it
@@ -162,6 +166,7 @@ class VulkanBackend final : public Backend {
   bool fused_detect_ = false;
   bool pfa_in_cull_ = true;
   bool fused_detect_finish_ = true;
+  int cull_pixels_ = 0;
   int queues_ = 1;
   std::map<std::pair<int, std::string>, std::unique_ptr<Buffer>> scratch_;  // key: queue, name
 };

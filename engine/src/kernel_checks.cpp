@@ -340,18 +340,19 @@ LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const 
 }
 
 CellGroups plan_cell_groups(std::string_view backend, std::string_view kernel, const CellLayout& cells,
-                            int group_size) {
+                            int group_size, int pixels_per_invocation) {
   CellGroups g;
   int group_shift = 0;
   while ((1 << (group_shift + 1)) <= group_size) ++group_shift;
   std::int64_t grid_pixels = 0;
   for (const LevelCells& c : cells.levels) grid_pixels += static_cast<std::int64_t>(c.count()) * c.cell_w * c.cell_h;
   const bool small = grid_pixels < kSmallGridPixels;
+  const std::int64_t per_invocation = pixels_per_invocation > 0 ? pixels_per_invocation : 4;
   for (const LevelCells& c : cells.levels) {
     const std::int64_t pixels = static_cast<std::int64_t>(c.cell_w) * c.cell_h;
     int shift = 0;
-    if (small) {
-      while (shift < group_shift && (std::int64_t{1} << shift) * 4 < pixels) ++shift;
+    if (small || pixels_per_invocation > 0) {
+      while (shift < group_shift && (std::int64_t{1} << shift) * per_invocation < pixels) ++shift;
     } else {
       shift = std::min(6, group_shift);
     }

@@ -8,16 +8,36 @@ const int kDy[16] = int[16](-3, -3, -2, -1, 0, 1, 2, 3, 3, 3, 2, 1, 0, -1, -2, -
 
 // The response of the pixel at byte `centre` of `pyramid` (at least 3 pixels inside its level, rows
 // `pitch` bytes apart): sum |I_i - c| over the circle when lut[bright] | lut[dark], else 0 (<= 4080).
+// The circle (kDx, kDy) is written out tap by tap: a loop over the constant arrays may leave them
+// in each invocation's memory where the driver does not unroll it. Two independent tests per tap,
+// as in the contract.
+#define PORTA_FAST_TAP(i, dx, dy)                               \
+  {                                                             \
+    const int q = int(pyramid[centre + (dy) * pitch + (dx)]);   \
+    if (q > c + eps) bright |= 1u << (i);                       \
+    if (q < c - eps) dark |= 1u << (i);                         \
+    sum += abs(q - c);                                          \
+  }
 uint fast_response(int centre, int pitch, int eps) {
   const int c = int(pyramid[centre]);
   uint bright = 0u, dark = 0u;
   int sum = 0;
-  for (int i = 0; i < 16; ++i) {
-    const int q = int(pyramid[centre + kDy[i] * pitch + kDx[i]]);
-    // Two independent tests, as in the contract.
-    if (q > c + eps) bright |= 1u << i;
-    if (q < c - eps) dark |= 1u << i;
-    sum += abs(q - c);
-  }
+  PORTA_FAST_TAP(0, 0, -3)
+  PORTA_FAST_TAP(1, 1, -3)
+  PORTA_FAST_TAP(2, 2, -2)
+  PORTA_FAST_TAP(3, 3, -1)
+  PORTA_FAST_TAP(4, 3, 0)
+  PORTA_FAST_TAP(5, 3, 1)
+  PORTA_FAST_TAP(6, 2, 2)
+  PORTA_FAST_TAP(7, 1, 3)
+  PORTA_FAST_TAP(8, 0, 3)
+  PORTA_FAST_TAP(9, -1, 3)
+  PORTA_FAST_TAP(10, -2, 2)
+  PORTA_FAST_TAP(11, -3, 1)
+  PORTA_FAST_TAP(12, -3, 0)
+  PORTA_FAST_TAP(13, -3, -1)
+  PORTA_FAST_TAP(14, -2, -2)
+  PORTA_FAST_TAP(15, -1, -3)
   return (uint(lut[bright]) | uint(lut[dark])) != 0u ? uint(sum) : 0u;
 }
+#undef PORTA_FAST_TAP

@@ -91,9 +91,19 @@ void main() {
     x0 = cell_x * grid.cell_w;
     w = min(x0 + grid.cell_w, s.width) - x0;
     const int h = min(y0 + grid.cell_h, s.height) - y0;
-    for (int i = lane; i < w * h; i += 1 << shift) {
-      const int dy = i / w;
-      const int x = x0 + i - dy * w, y = y0 + dy;
+    // Pixel i of the cell is (i % w, i / w), the divisions done once: each step moves the
+    // invocation 1 << shift pixels on, step_dy rows and step_dx columns.
+    const int step = 1 << shift;
+    const int step_dy = step / w, step_dx = step - step_dy * w;
+    int dy = lane / w, dx = lane - dy * w;
+    for (int i = lane; i < w * h; i += step) {
+      const int x = x0 + dx, y = y0 + dy;
+      dx += step_dx;
+      dy += step_dy;
+      if (dx >= w) {
+        dx -= w;
+        ++dy;
+      }
       if (y < p.edge || y >= s.height - p.edge || x < p.edge || x >= s.width - p.edge) continue;
       const uint r = fast_response(s.offset_bytes + y * s.pitch + x, s.pitch, p.eps);
       const uint64_t k = (uint64_t(r) << 32) | uint64_t(0xFFFFFFFFu - uint(i));

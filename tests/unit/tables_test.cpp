@@ -147,6 +147,21 @@ TEST(Culling, FusedWorkgroupsGiveSmallGridsAQuarterOfACellsPixelsAndLargeOnes64)
   EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", edge, 256).shift[0], 6);
   edge.levels[0].rows = 15;  // 240 cells: below
   EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", edge, 256).shift[0], 8);
+  // Pixels per invocation named: that many for any grid's cells. KITTI's 32 x 32 cells of level 0
+  // (1024 px) at 4: 256 invocations; level 7's 8 x 8 (64 px): 16; at 16, 64 and 4; at 1, the
+  // workgroup's 256 caps level 0.
+  ASSERT_EQ(kitti.levels[7].cell_w, 8);
+  const checks::CellGroups k4 = checks::plan_cell_groups("test", "fast_cull", kitti, 256, 4);
+  EXPECT_EQ(k4.shift[0], 8);
+  EXPECT_EQ(k4.shift[7], 4);
+  EXPECT_EQ(k4.first_group[1], kitti.levels[0].count());
+  const checks::CellGroups k16 = checks::plan_cell_groups("test", "fast_cull", kitti, 256, 16);
+  EXPECT_EQ(k16.shift[0], 6);
+  EXPECT_EQ(k16.shift[7], 2);
+  EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", kitti, 256, 1).shift[0], 8);
+  EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", kitti, 256, 1).shift[7], 6);
+  // A small grid named 16: the count named, not the small grids' 4.
+  EXPECT_EQ(checks::plan_cell_groups("test", "fast_cull", edge, 256, 16).shift[0], 6);
 }
 
 TEST(Blur, TapsAreSymmetricAndSumTo256) {

@@ -433,6 +433,46 @@ TEST_F(VulkanBackendTest, Transfers_ABadSettingIsRefusedByName) {
   }
 }
 
+TEST_F(VulkanBackendTest, FastCull_AnyPixelsPerInvocationGivesTheCpuBytes) {
+  // fast_cull.comp's work split (PORTA_VULKAN_CULL_PIXELS) changes which invocation scans which
+  // pixel of a cell, never the cell's maximum. 640x480 with 5 levels of 32-pixel cells is a grid
+  // above 2^18 pixels (64 invocations per cell by default); 1 gives level 0's cells the whole
+  // workgroup, 1024 one invocation each.
+  test::ScopedEnv groups("PORTA_VULKAN_WORK_GROUPS", "on");
+  FrontendSettings settings;
+  settings.levels = 5;
+  const Image image = test::textured_image(640, 480, 7);
+  auto cpu = BackendRegistry::instance().create("cpu", {});
+  const Features want = Frontend(*cpu, settings, 640, 480).detect(image.view());
+  ASSERT_GT(want.keypoints.size(), 100u) << "the test image should have corners";
+  for (const char* pixels : {"", "1", "3", "16", "1024"}) {
+    SCOPED_TRACE(std::string("PORTA_VULKAN_CULL_PIXELS=") + pixels);
+    test::ScopedEnv split("PORTA_VULKAN_CULL_PIXELS", pixels);
+    vulkan::VulkanBackend backend;
+    EXPECT_EQ(backend.cull_pixels(), *pixels == '\0' ? 0 : std::atoi(pixels));
+    ASSERT_TRUE(backend.fused_detect()) << "fast_cull.comp is the fused detection's";
+    const Features got = Frontend(backend, settings, 640, 480).detect(image.view());
+    ASSERT_EQ(got.keypoints.size(), want.keypoints.size());
+    EXPECT_EQ(std::memcmp(got.keypoints.data(), want.keypoints.data(), got.keypoints.size() * sizeof(Keypoint)), 0);
+    ASSERT_EQ(got.descriptors.size(), want.descriptors.size());
+    EXPECT_EQ(
+        std::memcmp(got.descriptors.data(), want.descriptors.data(), got.descriptors.size() * sizeof(Descriptor)),
+        0);
+  }
+  for (const char* bad : {"many", "-1", "1025"}) {
+    test::ScopedEnv split("PORTA_VULKAN_CULL_PIXELS", bad);
+    try {
+      vulkan::VulkanBackend backend;
+      ADD_FAILURE() << "PORTA_VULKAN_CULL_PIXELS=" << bad << " was accepted";
+    } catch (const BackendError& e) {
+      EXPECT_NE(std::string(e.what()).find("PORTA_VULKAN_CULL_PIXELS must be a pixel count from 0 to 1024, got '" +
+                                           std::string(bad) + "'"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST_F(VulkanBackendTest, Memory_FillUploadDownloadAtAnyAlignment) {
   auto buffer = backend_->allocate(37);
   std::vector<std::uint8_t> expected(37, 0), got(37, 0xEE);

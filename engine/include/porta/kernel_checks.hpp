@@ -188,7 +188,9 @@ class FusedPyramidLevels {
 /// to a workgroup, as the 64-wide workgroup per cell this replaced: at 1242x375 with 8 levels
 /// the GPU is full, and both 4 and 16 pixels per invocation were slower there on the H100 (NVIDIA
 /// OpenCL 49.5 and 54.3 against 44.8-45.1 us per stereo frame; Vulkan 51.8 and 58.0 against
-/// 52.1-52.2). Level n's cells start at workgroup first_group[n].
+/// 52.1-52.2). With `pixels_per_invocation` > 0, every grid's cells take the power of two of
+/// invocations >= their pixels over that (capped at group_size), whatever the grid's size. Level
+/// n's cells start at workgroup first_group[n].
 inline constexpr std::int64_t kSmallGridPixels = std::int64_t{1} << 18;
 struct CellGroups {
   std::vector<std::int32_t> first_group;
@@ -197,6 +199,6 @@ struct CellGroups {
 };
 /// Throws BackendError when the workgroups would not fit in 32-bit signed indices.
 CellGroups plan_cell_groups(std::string_view backend, std::string_view kernel, const CellLayout& cells,
-                            int group_size);
+                            int group_size, int pixels_per_invocation = 0);
 
 }  // namespace porta::checks
