@@ -261,7 +261,8 @@ void VulkanBackend::detect_keypoints(const Buffer& pyramid, const PyramidLayout&
     f.cells = to_glsl(cell_layout, "cull_cells");
     f.eps = fast.threshold;
     f.edge = fast.edge;
-    const checks::CellGroups groups = checks::plan_cell_groups(kBackend, "fast_cull", cell_layout, kFastCullGroup, cull_pixels());
+    const checks::CellGroups groups =
+        checks::plan_cell_groups(kBackend, "fast_cull", cell_layout, kFastCullGroup, cull_pixels());
     for (std::size_t n = 0; n < groups.shift.size(); ++n) {
       f.cells.level[n].first_group = groups.first_group[n];
       f.cells.level[n].group_shift = groups.shift[n];
