@@ -39,6 +39,9 @@
 # pass through. PORTA_PROFILE_SETTINGS adds runs of any settings, on vulkan and opencl, frame times
 # and per-kernel device time: "NAME NAME=VALUE ...; NAME NAME=VALUE ..." (e.g. "px4
 # PORTA_VULKAN_CULL_PIXELS=4"), in frames-*-NAME.txt and kernels-*-NAME.txt, after the variants.
+# PORTA_PROFILE_REPEATS=N (1 to 20, default 1): the default frame times N - 1 times more, at the end
+# of each cell (frames-*-repeat-K.json); report.md ends with issue 16's table, each figure the
+# median over the default run, these and "repeat" (bench/backend_table.py; needs python3).
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 
@@ -52,6 +55,8 @@ source ci/gpu-common.sh
 
 # The settings, checked before anything is built.
 case "$frames" in '' | *[!0-9]* | 0) say "PORTA_PROFILE_FRAMES must be a whole number of frames, got '$frames'"; exit 1 ;; esac
+repeats="${PORTA_PROFILE_REPEATS:-1}"
+case "$repeats" in [1-9] | 1[0-9] | 20) ;; *) say "PORTA_PROFILE_REPEATS must be a number of runs from 1 to 20, got '$repeats'"; exit 1 ;; esac
 variants="${PORTA_PROFILE_VARIANTS:-one-queue fused-pyramid unfused-detect}"
 variant() { case " $variants " in *" $1 "*) return 0 ;; esac; return 1; }
 for v in $variants; do
@@ -154,6 +159,11 @@ for cell in "${cells[@]}"; do
     "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name-repeat.json" \
       >"$out_dir/frames-$name-repeat.txt" 2>>"$out_dir/bench.log" || status=1
   fi
+  for ((k = 2; k <= repeats; k++)); do
+    say "cell $name: frame times on $all, run $k of $repeats"
+    "$binary" bench --backend "$all" "${common[@]}" "${bench_args[@]}" --json "$out_dir/frames-$name-repeat-$k.json" \
+      >"$out_dir/frames-$name-repeat-$k.txt" 2>>"$out_dir/bench.log" || status=1
+  done
 done
 
 # The host's cost of OpenCL calls on this device (porta_cl_enqueue_bench): what bounds opencl with
@@ -215,5 +225,21 @@ fi
     echo '```'
   fi
 } >"$out_dir/report.md"
+
+# Issue 16's table: every cell's default runs, each figure the median over them.
+runs=()
+for cell in "${cells[@]}"; do
+  name="${cell%%:*}"
+  for f in "$out_dir/frames-$name.json" "$out_dir/frames-$name-repeat.json" "$out_dir/frames-$name-repeat-"*.json; do
+    [ -f "$f" ] && runs+=("$f")
+  done
+done
+if [ "${#runs[@]}" -gt 0 ] && command -v python3 >/dev/null; then
+  {
+    printf '\n%s\n\n' "## Issue 16's table (bench/backend_table.py over the default runs)"
+    python3 bench/backend_table.py --reference cuda --within vulkan=1.5 --within opencl=2 --faster-than cpu \
+      "${runs[@]}" 2>&1
+  } >>"$out_dir/report.md" || status=1
+fi
 say "results in $out_dir (report.md); exit status $status"
 exit "$status"

@@ -21,10 +21,12 @@ add_test(NAME cli.gpu_equivalence_refuses_PORTA_GPU_CPU_PATHS
 set_tests_properties(cli.gpu_equivalence_refuses_PORTA_GPU_CPU_PATHS PROPERTIES LABELS cli TIMEOUT 30
                      PASS_REGULAR_EXPRESSION "gpu.sh: PORTA_GPU_CPU_PATHS must be on or off, got 'maybe'")
 
-# ci/gpu-kernel-profile.sh: an unknown variant, a cell it does not have, frames that are no number.
+# ci/gpu-kernel-profile.sh: an unknown variant, a cell it does not have, frames that are no number,
+# too many repeats.
 foreach(case "PORTA_PROFILE_VARIANTS=sometimes|PORTA_PROFILE_VARIANTS names 'sometimes'; known:"
              "PORTA_PROFILE_CELLS=64x64-1|PORTA_PROFILE_CELLS='64x64-1' names no cell"
-             "PORTA_PROFILE_FRAMES=lots|PORTA_PROFILE_FRAMES must be a whole number of frames, got 'lots'")
+             "PORTA_PROFILE_FRAMES=lots|PORTA_PROFILE_FRAMES must be a whole number of frames, got 'lots'"
+             "PORTA_PROFILE_REPEATS=21|PORTA_PROFILE_REPEATS must be a number of runs from 1 to 20, got '21'")
   string(REPLACE "|" ";" parts "${case}")
   list(GET parts 0 assignment)
   list(GET parts 1 message)
@@ -76,4 +78,7 @@ if(Python3_Interpreter_FOUND)
                        PASS_REGULAR_EXPRESSION "fast-cuda-1\\.json: not a portaslam run summary \\(JSONDecodeError")
   set_tests_properties(cli.slam_variants_summary_without_runs PROPERTIES LABELS cli TIMEOUT 30
                        PASS_REGULAR_EXPRESSION "no runs \\(NAME-ROUND/fast-\\*-1\\.json\\) in ")
+  # bench/backend_table.py (issue 16's table in ci/gpu-kernel-profile.sh's report) on hand-made runs.
+  add_test(NAME cli.backend_table COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_LIST_DIR}/backend_table_test.py)
+  set_tests_properties(cli.backend_table PROPERTIES LABELS cli TIMEOUT 60)
 endif()
