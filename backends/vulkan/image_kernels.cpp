@@ -1,7 +1,6 @@
 // Image kernels of the Vulkan backend: rectification, pyramid construction and the descriptor
 // blur (DESIGN.md §3.1, §3.2, §3.7); shaders rectify.comp, build_pyramid.comp, blur_*.comp.
 // Argument checks mirror the cpu backend's (backends/cpu/image_kernels.cpp).
-#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -27,9 +26,8 @@ struct PyramidFusedParams {  // build_pyramid_fused.comp (parameter buffer)
   GlslLevels layout;
   GlslTiles tiles;
   std::int32_t table_offset[kMaxLevels];
-  std::int32_t base, pad[3];
 };
-static_assert(sizeof(PyramidFusedParams) == 208 + 112 + 48 + 16);
+static_assert(sizeof(PyramidFusedParams) == 208 + 112 + 48);
 struct BlurParams {  // blur_horizontal.comp, blur_vertical.comp (parameter buffer)
   GlslLevels layout;
   std::int32_t scratch_offset[kMaxLevels];
@@ -61,46 +59,41 @@ void VulkanBackend::rectify(const Buffer& src, const Plane& src_plane, const Buf
       Work::grid(static_cast<std::uint64_t>(dst_plane.width), static_cast<std::uint64_t>(dst_plane.height)));
 }
 
-// §3.2. The levels from pyramid_chain_from_ on (PORTA_VULKAN_PYRAMID_CHAIN_FROM, default 1) in
-// chains of pyramid_chain_ (PORTA_VULKAN_PYRAMID_CHAIN), the levels before it one by one: a chain
-// of two or more is one dispatch, one workgroup per 32 x 8 tile of its levels, each computing from the level
-// before the chain (build_pyramid_fused.comp; a chain is cut where a tile's regions would not fit
-// in shared memory, never for 8 levels at scale 1.2). A level alone: one dispatch, 32 x 8
-// workgroups on GPUs, 8 x 8 elsewhere. The dispatches run in order (each chain reads the level
-// before it; barriers between them).
+// §3.2. With $PORTA_VULKAN_FUSED_PYRAMID=on: levels 1..m in one dispatch, one workgroup per
+// 32 x 8 tile of them (build_pyramid_fused.comp; m as far as each tile's regions fit in shared
+// memory, for 8 levels at scale 1.2 all of them). The levels after m, and every level by default:
+// one dispatch per level, in order (each reads the level above; barriers between them), 32 x 8
+// workgroups on GPUs, 8 x 8 elsewhere.
 void VulkanBackend::build_pyramid(Buffer& pyramid, const PyramidLayout& layout, const Buffer& resize_table,
                                   const std::vector<std::int32_t>& level_offset) {
   const int levels = layout.num_levels();
   checks::check_pyramid(kBackend, pyramid, layout, resize_table, level_offset, /*reject_negative_offsets=*/true,
                         kPlaneLimits);
-  for (int n = 1; n < levels;) {
-    const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
-    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
-    if (level.width <= 0 || level.height <= 0) {
-      ++n;
-      continue;
-    }
-    const int last = pyramid_chain_ > 1 && n >= pyramid_chain_from_ ? std::min(n + pyramid_chain_ - 1, fused_levels_(layout, n - 1)) : n;
-    if (last > n) {
+  int first = 1;  // the first level built one dispatch per level
+  if (fused_pyramid_ && levels > 2) {
+    const int fused = fused_levels_(layout);
+    if (fused >= 2) {
       PyramidFusedParams params{};
       params.layout = to_glsl(layout, "build_pyramid");
-      PyramidLayout tiled = layout;  // tiles of levels n..last only
-      for (int k = 0; k < levels; ++k)
-        if (k < n || k > last) tiled.levels[static_cast<std::size_t>(k)].width = 0;
+      PyramidLayout tiled = layout;  // tiles of levels 1..fused only
+      for (int n = 0; n < levels; ++n)
+        if (n == 0 || n > fused) tiled.levels[static_cast<std::size_t>(n)].width = 0;
       std::uint64_t tiles = 0;
       params.tiles = tiles_of(tiled, "build_pyramid", tiles);
-      for (int k = n; k <= last; ++k) params.table_offset[k] = level_offset[static_cast<std::size_t>(k - 1)];
-      params.base = n - 1;
+      for (int n = 1; n <= fused; ++n) params.table_offset[n] = level_offset[static_cast<std::size_t>(n - 1)];
       rt().dispatch("build_pyramid_fused", {&pyramid, &resize_table}, params, Work::groups(tiles));
-      n = last + 1;
-      continue;
+      first = fused + 1;
     }
+  }
+  for (int n = first; n < levels; ++n) {
+    const Plane& above = layout.levels[static_cast<std::size_t>(n - 1)];
+    const Plane& level = layout.levels[static_cast<std::size_t>(n)];
+    if (level.width <= 0 || level.height <= 0) continue;
     const PyramidParams params{
         to_glsl(above), to_glsl(level), level_offset[static_cast<std::size_t>(n - 1)], {0, 0, 0}};
     rt().dispatch(
         work_groups() ? "build_pyramid_wide" : "build_pyramid", {&pyramid, &resize_table}, params,
         Work::grid(static_cast<std::uint64_t>(level.width), static_cast<std::uint64_t>(level.height)));
-    ++n;
   }
 }
 

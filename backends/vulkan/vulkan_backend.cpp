@@ -7,7 +7,6 @@
 #include "porta/kernel_checks.hpp"
 #include "vulkan/vk_context.hpp"
 #include "vulkan/vk_runtime.hpp"
-#include "vulkan/vk_types.hpp"
 
 namespace porta::vulkan {
 
@@ -17,12 +16,8 @@ VulkanBackend::VulkanBackend(const BackendOptions& options) : runtime_(std::make
   work_groups_ = !runtime_->context().cpu_device() && limits.maxComputeWorkGroupInvocations >= 256 &&
                  limits.maxComputeWorkGroupSize[0] >= 256 && limits.maxComputeWorkGroupSize[1] >= 8;
   work_groups_ = checks::env_switch("vulkan", "PORTA_VULKAN_WORK_GROUPS", work_groups_);
-  // The pyramid's levels in chains of N per dispatch (build_pyramid_fused.comp from the level
-  // before each chain), or all in one with PORTA_VULKAN_FUSED_PYRAMID=on.
-  pyramid_chain_ = checks::env_int("vulkan", "PORTA_VULKAN_PYRAMID_CHAIN", 1, kMaxLevels, 1, "a number of levels");
-  if (checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", false)) pyramid_chain_ = kMaxLevels;
-  pyramid_chain_from_ =
-      checks::env_int("vulkan", "PORTA_VULKAN_PYRAMID_CHAIN_FROM", 1, kMaxLevels - 1, 1, "a level");
+  // Off by default until measured on a GPU (the bytes are the suite's, on lavapipe).
+  fused_pyramid_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_PYRAMID", false);
   // Detection in fewer dispatches (FAST with culling, PFA with compaction): each dispatch and
   // barrier saved is device time between kernels and host time recording them.
   fused_detect_ = checks::env_switch("vulkan", "PORTA_VULKAN_FUSED_DETECT",

@@ -161,13 +161,8 @@ class VulkanBackend final : public Backend {
   /// How many levels build_pyramid_fused.comp builds in one dispatch: 32 x 8 tiles, 8 KiB regions
   /// (its REGION_WORDS * 4).
   checks::FusedPyramidLevels fused_levels_{32, 8, 8192};
-  /// How many pyramid levels build_pyramid builds in one dispatch, each from the level before the
-  /// dispatch's first ($PORTA_VULKAN_PYRAMID_CHAIN; $PORTA_VULKAN_FUSED_PYRAMID=on: all of them;
-  /// 1: a dispatch per level).
-  int pyramid_chain_ = 1;
-  /// The first level built in chains ($PORTA_VULKAN_PYRAMID_CHAIN_FROM; the levels before it one
-  /// dispatch each).
-  int pyramid_chain_from_ = 1;
+  /// Whether build_pyramid fuses levels ($PORTA_VULKAN_FUSED_PYRAMID=on; off by default).
+  bool fused_pyramid_ = false;
   bool fused_detect_ = false;
   bool pfa_in_cull_ = true;
   bool fused_detect_finish_ = true;

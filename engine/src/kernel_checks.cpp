@@ -271,8 +271,7 @@ bool env_switch(std::string_view backend, const char* variable, bool fallback) {
   return value == "on";
 }
 
-int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, std::int64_t capacity_bytes,
-                         int base) {
+int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, std::int64_t capacity_bytes) {
   const int levels = layout.num_levels();
   std::vector<std::pair<int, int>> sizes;
   int usable = 0;  // levels 0..usable-1 are not empty
@@ -281,16 +280,16 @@ int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, st
     sizes.emplace_back(p.width, p.height);
     ++usable;
   }
-  if (base < 0 || usable < base + 2) return 0;
+  if (usable < 2) return 0;
   const ResizeTables tables = build_resize_tables(sizes);
-  int fused = base + 1;  // level base + 1 reads level base only: always
-  for (int n = base + 2; n < std::min(levels, usable); ++n) {
+  int fused = 1;  // level 1 reads level 0 only: always
+  for (int n = 2; n < std::min(levels, usable); ++n) {
     const auto [w, h] = sizes[static_cast<std::size_t>(n)];
     bool fits = true;
     for (int ty = 0; ty < h && fits; ty += tile_h) {
       for (int tx = 0; tx < w && fits; tx += tile_w) {
         int xa = tx, xb = std::min(tx + tile_w, w) - 1, ya = ty, yb = std::min(ty + tile_h, h) - 1;
-        for (int k = n; k >= base + 2; --k) {  // the region of level k - 1 that level k's region reads
+        for (int k = n; k >= 2; --k) {  // the region of level k - 1 that level k's region reads
           const ResizeAxis& cols = tables.cols[static_cast<std::size_t>(k - 1)];
           const ResizeAxis& rows = tables.rows[static_cast<std::size_t>(k - 1)];
           const auto [aw, ah] = sizes[static_cast<std::size_t>(k - 1)];
@@ -312,12 +311,11 @@ int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, st
   return fused;
 }
 
-int FusedPyramidLevels::operator()(const PyramidLayout& layout, int base) {
-  std::vector<std::int32_t> key{base};
+int FusedPyramidLevels::operator()(const PyramidLayout& layout) {
+  std::vector<std::int32_t> key;
   for (const Plane& p : layout.levels) key.insert(key.end(), {p.width, p.height});
   auto it = known_.find(key);
-  if (it == known_.end())
-    it = known_.emplace(key, fused_pyramid_levels(layout, tile_w_, tile_h_, capacity_, base)).first;
+  if (it == known_.end()) it = known_.emplace(key, fused_pyramid_levels(layout, tile_w_, tile_h_, capacity_)).first;
   return it->second;
 }
 

@@ -109,8 +109,6 @@ frames/s"
     porta_bench_bad_switch(PORTA_VULKAN_WORK_GROUPS yes "must be on or off")
     porta_bench_bad_switch(PORTA_VULKAN_QUEUES 9 "must be a queue count from 1 to 8")
     porta_bench_bad_switch(PORTA_VULKAN_FUSED_PYRAMID yes "must be on or off")
-    porta_bench_bad_switch(PORTA_VULKAN_PYRAMID_CHAIN 0 "must be a number of levels from 1 to 12")
-    porta_bench_bad_switch(PORTA_VULKAN_PYRAMID_CHAIN_FROM 12 "must be a level from 1 to 11")
     porta_bench_bad_switch(PORTA_VULKAN_PFA_IN_CULL maybe "must be on or off")
     porta_bench_bad_switch(PORTA_VULKAN_CULL_FINISHES 2 "must be on or off")
     porta_bench_bad_switch(PORTA_VULKAN_ALL_BARRIERS always "must be on or off")

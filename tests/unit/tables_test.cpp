@@ -79,22 +79,6 @@ TEST(Pyramid, FusedLevelsAreThoseWhoseRegionsFitHandWorked) {
   EXPECT_EQ(checks::fused_pyramid_levels(empty, 32, 8, 1 << 20), 0);
 }
 
-// From a later level (a chain of levels in one dispatch): levels 2 and 3 of 64x16 -> 32x8 -> 16x4 ->
-// 8x2 built from level 1. Level 3's one tile (8x2) reads columns 2j .. 2j + 1 = 0..15 and rows 0..3
-// of level 2: 16 x 4 = 64 bytes.
-TEST(Pyramid, FusedLevelsFromALaterBaseHandWorked) {
-  const PyramidLayout layout = PyramidLayout::make({{64, 16}, {32, 8}, {16, 4}, {8, 2}}, 1);
-  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 64, 1), 3);
-  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 63, 1), 2);
-  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 0, 2), 3);  // level 3 reads level 2 alone
-  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 1 << 20, 3), 0);  // no level 4
-  EXPECT_EQ(checks::fused_pyramid_levels(layout, 32, 8, 1 << 20, -1), 0);
-  checks::FusedPyramidLevels cached(32, 8, 64);  // the cache keys on the base as well
-  EXPECT_EQ(cached(layout, 1), 3);
-  EXPECT_EQ(cached(layout, 2), 3);
-  EXPECT_EQ(cached(layout, 0), checks::fused_pyramid_levels(layout, 32, 8, 64, 0));
-}
-
 // The default pyramid (8 levels at scale 1.2) fuses whole in the GPU shaders' 8 KiB; 12 levels at
 // scale 2 do not (a tile of level 11 reads ~2^10 times its width of level 1).
 TEST(Pyramid, DefaultPyramidFusesWhole) {

@@ -155,15 +155,14 @@ struct LevelTiles {
 LevelTiles tile_levels(std::string_view backend, std::string_view kernel, const PyramidLayout& layout, int tile_w,
                        int tile_h);
 
-/// For fused pyramid kernels: one dispatch builds levels base+1..m, one workgroup per tile_w x
-/// tile_h tile of those levels, each computing from level `base`, in on-chip memory, the regions of
-/// levels base+1..n-1 that its level-n tile reads. Returns the largest such m (at most num_levels
-/// - 1) for which every region, its rows padded to 4 bytes, fits in `capacity_bytes`, with the
-/// resize tables build_resize_tables makes for the layout's level sizes (the contract's tables,
-/// whose source indices never decrease); at least base + 1, which reads level `base` alone. 0 when
-/// level base + 1 does not exist or is empty (or base < 0); levels after an empty one are not fused.
-int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, std::int64_t capacity_bytes,
-                         int base = 0);
+/// For fused pyramid kernels: one dispatch builds levels 1..m, one workgroup per tile_w x tile_h
+/// tile of those levels, each computing from level 0, in on-chip memory, the regions of levels
+/// 1..n-1 that its level-n tile reads. Returns the largest such m (at most num_levels - 1) for
+/// which every region, its rows padded to 4 bytes, fits in `capacity_bytes`, with the resize
+/// tables build_resize_tables makes for the layout's level sizes (the contract's tables, whose
+/// source indices never decrease). 0 for one level, or when level 1 is empty; levels after an
+/// empty one are not fused.
+int fused_pyramid_levels(const PyramidLayout& layout, int tile_w, int tile_h, std::int64_t capacity_bytes);
 
 /// fused_pyramid_levels for one kernel's tile and capacity, computed once per layout (its levels'
 /// sizes): a backend's member.
@@ -171,12 +170,12 @@ class FusedPyramidLevels {
  public:
   FusedPyramidLevels(int tile_w, int tile_h, std::int64_t capacity_bytes)
       : tile_w_(tile_w), tile_h_(tile_h), capacity_(capacity_bytes) {}
-  int operator()(const PyramidLayout& layout, int base = 0);
+  int operator()(const PyramidLayout& layout);
 
  private:
   int tile_w_, tile_h_;
   std::int64_t capacity_;
-  std::map<std::vector<std::int32_t>, int> known_;  // key: the base, the levels' widths and heights
+  std::map<std::vector<std::int32_t>, int> known_;  // key: the levels' widths and heights
 };
 
 /// The work split of the fused FAST and culling kernels (vulkan fast_cull.comp, opencl
