@@ -189,8 +189,9 @@ class FusedPyramidLevels {
 /// the GPU is full, and both 4 and 16 pixels per invocation were slower there on the H100 (NVIDIA
 /// OpenCL 49.5 and 54.3 against 44.8-45.1 us per stereo frame; Vulkan 51.8 and 58.0 against
 /// 52.1-52.2). With `pixels_per_invocation` > 0, every grid's cells take the power of two of
-/// invocations >= their pixels over that (capped at group_size), whatever the grid's size. Level
-/// n's cells start at workgroup first_group[n].
+/// invocations >= their pixels over that (capped at group_size), whatever the grid's size (at
+/// 752x480 with 8 levels on an H100, N = 1, 2, 4 and 8 took vulkan's kernel 23.1, 21.8, 20.6 and
+/// 20.0 us against the rule's 18.6). Level n's cells start at workgroup first_group[n].
 inline constexpr std::int64_t kSmallGridPixels = std::int64_t{1} << 18;
 struct CellGroups {
   std::vector<std::int32_t> first_group;
